@@ -1,0 +1,173 @@
+#pragma once
+// Tiled occupancy grid with per-cell hit/err counters (paper Eq. 2).
+//
+// The map is unbounded: square tiles of `tile_edge` x `tile_edge` cells are created on first
+// touch. Each cell keeps two saturating counters, `hit` (beam end points that fell in it) and
+// `err` (beams that passed through it); its value is hit / (hit + err), 0 while unknown.
+//
+// Besides the counters every tile keeps a derived `score` array, the only thing the pose search
+// reads: kUnknownScore for an unknown cell, else hit / (hit + err) as a float that is < 1
+// exactly when err > 0. One 4-byte load per beam then gives the map value and both penalty
+// flags of Eq. (fitness). A dense directory of tile pointers over the tiles' bounding box makes
+// a cell look-up a few shifts and two loads (GridMap::Lookup).
+//
+// Versioning: a map update (one scan insertion) touches cells through add_hit/add_err, then
+// commit_update() bumps the version of every touched tile once and adds it to the dirty set
+// that the leader drains with take_dirty() to publish changed tiles.
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <unordered_map>
+#include <vector>
+
+namespace esfleet {
+
+struct CellIndex {
+  std::int32_t x = 0;
+  std::int32_t y = 0;
+  friend bool operator==(const CellIndex&, const CellIndex&) = default;
+};
+
+struct TileKey {
+  std::int32_t tx = 0;
+  std::int32_t ty = 0;
+  friend bool operator==(const TileKey&, const TileKey&) = default;
+  friend auto operator<=>(const TileKey&, const TileKey&) = default;
+};
+
+struct TileKeyHash {
+  std::size_t operator()(const TileKey& k) const noexcept {
+    return std::hash<std::uint64_t>{}((static_cast<std::uint64_t>(static_cast<std::uint32_t>(k.tx))
+                                       << 32) |
+                                      static_cast<std::uint32_t>(k.ty));
+  }
+};
+
+/// Score of a cell nobody has observed (hit + err == 0).
+inline constexpr float kUnknownScore = -1.0f;
+
+struct GridMapConfig {
+  double cell_size = 0.05;  ///< metres per cell edge (the paper's alpha^Map, value ours)
+  int tile_edge = 64;       ///< cells per tile edge; a power of two in [8, 1024]
+  /// Tiles may exist only with |tx|, |ty| <= this: bounds the directory and rejects absurd
+  /// coordinates (64-cell tiles of 5 cm: +-3.3 km).
+  int max_tile_coord = 1024;
+  /// Throws std::invalid_argument naming the offending field.
+  void validate() const;
+};
+
+/// One square tile. Arrays are row-major: index = ly * edge + lx, (lx, ly) cell offsets inside
+/// the tile from its lower-left cell (tx * edge, ty * edge).
+struct Tile {
+  TileKey key;
+  std::uint64_t version = 0;  ///< bumped once per map update that changed the tile
+  std::vector<std::uint32_t> hit;
+  std::vector<std::uint32_t> err;
+  std::vector<float> score;  ///< derived from hit/err, see kUnknownScore
+  bool touched = false;      ///< changed since the last commit_update()
+  bool dirty = false;        ///< in the dirty set (changed since the last take_dirty())
+};
+
+class GridMap {
+ public:
+  explicit GridMap(GridMapConfig config = {});
+  GridMap(const GridMap&) = delete;
+  GridMap& operator=(const GridMap&) = delete;
+  GridMap(GridMap&&) noexcept;
+  GridMap& operator=(GridMap&&) noexcept;
+  ~GridMap();
+
+  const GridMapConfig& config() const { return config_; }
+  double cell_size() const { return config_.cell_size; }
+  int tile_edge() const { return config_.tile_edge; }
+
+  /// The cell containing world point (x, y): floor(x / cell_size), floor(y / cell_size).
+  CellIndex cell_of(double x, double y) const;
+  TileKey tile_of(CellIndex c) const { return {c.x >> shift_, c.y >> shift_}; }
+  /// True when a tile at this key is allowed (|tx|, |ty| <= max_tile_coord).
+  bool key_in_range(TileKey k) const;
+
+  std::uint32_t hit(CellIndex c) const;
+  std::uint32_t err(CellIndex c) const;
+  /// hit / (hit + err); 0 for an unknown cell (paper Eq. 2).
+  float value(CellIndex c) const;
+  /// The derived score: kUnknownScore if unknown, else value (< 1 exactly when err > 0).
+  float score(CellIndex c) const;
+
+  /// Map-update primitives: saturating increments; the tile is created on first touch.
+  /// Return false (and change nothing) when the cell lies outside the allowed tile range.
+  bool add_hit(CellIndex c);
+  bool add_err(CellIndex c);
+
+  /// Ends one map update: bumps each touched tile's version once and marks it dirty.
+  /// Returns how many tiles changed.
+  std::size_t commit_update();
+  /// Keys of tiles changed since the previous call (sorted); clears the dirty set.
+  std::vector<TileKey> take_dirty();
+  /// Marks every existing tile dirty (e.g. to republish all).
+  void mark_all_dirty();
+
+  const Tile* find_tile(TileKey k) const;
+  std::vector<TileKey> tile_keys() const;  ///< sorted
+  std::size_t tile_count() const { return tiles_.size(); }
+  std::size_t cells_per_tile() const {
+    return static_cast<std::size_t>(config_.tile_edge) * config_.tile_edge;
+  }
+
+  /// Replaces (or creates) a whole tile from received counters, e.g. on a follower. The spans
+  /// must hold cells_per_tile() entries; throws std::invalid_argument otherwise or when the key is
+  /// out of range. Does not mark the tile dirty.
+  void set_tile(TileKey k, std::uint64_t version, std::span<const std::uint32_t> hit,
+                std::span<const std::uint32_t> err);
+
+  struct Bounds {
+    CellIndex min;  ///< inclusive
+    CellIndex max;  ///< inclusive
+    bool empty = true;
+  };
+  /// Bounding box of cells with hit + err > 0.
+  Bounds known_bounds() const;
+
+  /// Read-only view for the pose search; valid until the next tile is created.
+  class Lookup {
+   public:
+    float score(std::int32_t cx, std::int32_t cy) const {
+      const auto tx = static_cast<std::uint32_t>((cx >> shift_) - tx0_);
+      const auto ty = static_cast<std::uint32_t>((cy >> shift_) - ty0_);
+      if (tx >= width_ || ty >= height_) return kUnknownScore;
+      const float* t = dir_[ty * width_ + tx];
+      if (t == nullptr) return kUnknownScore;
+      return t[((cy & mask_) << shift_) | (cx & mask_)];
+    }
+
+   private:
+    friend class GridMap;
+    const float* const* dir_ = nullptr;
+    std::int32_t tx0_ = 0, ty0_ = 0;
+    std::uint32_t width_ = 0, height_ = 0;
+    int shift_ = 0;
+    std::int32_t mask_ = 0;
+  };
+  Lookup lookup() const;
+
+ private:
+  Tile* tile_for_write(CellIndex c);
+  void grow_directory(TileKey k);
+  static void refresh_score(Tile& t, std::size_t i);
+
+  GridMapConfig config_;
+  int shift_ = 6;
+  std::int32_t mask_ = 63;
+  std::unordered_map<TileKey, std::unique_ptr<Tile>, TileKeyHash> tiles_;
+  std::vector<Tile*> touched_;
+  std::vector<TileKey> dirty_;
+  // Directory over tiles [dir_tx0_, dir_tx0_ + dir_w_) x [dir_ty0_, dir_ty0_ + dir_h_).
+  std::vector<const float*> dir_scores_;
+  std::vector<Tile*> dir_tiles_;
+  std::int32_t dir_tx0_ = 0, dir_ty0_ = 0;
+  std::uint32_t dir_w_ = 0, dir_h_ = 0;
+};
+
+}  // namespace esfleet

@@ -1,0 +1,283 @@
+#include "esfleet/core/grid_map.hpp"
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace esfleet {
+
+void GridMapConfig::validate() const {
+  if (!(cell_size > 0.0) || !std::isfinite(cell_size) || cell_size > 10.0) {
+    throw std::invalid_argument("map.cell_size must be in (0, 10] m, got " +
+                                std::to_string(cell_size));
+  }
+  if (tile_edge < 8 || tile_edge > 1024 || !std::has_single_bit(static_cast<unsigned>(tile_edge))) {
+    throw std::invalid_argument("map.tile_edge must be a power of two in [8, 1024], got " +
+                                std::to_string(tile_edge));
+  }
+  if (max_tile_coord < 1 || max_tile_coord > 1 << 14) {
+    throw std::invalid_argument("map.max_tile_coord must be in [1, 16384], got " +
+                                std::to_string(max_tile_coord));
+  }
+}
+
+GridMap::GridMap(GridMapConfig config) : config_(config) {
+  config_.validate();
+  shift_ = std::countr_zero(static_cast<unsigned>(config_.tile_edge));
+  mask_ = config_.tile_edge - 1;
+}
+
+GridMap::GridMap(GridMap&&) noexcept = default;
+GridMap& GridMap::operator=(GridMap&&) noexcept = default;
+GridMap::~GridMap() = default;
+
+CellIndex GridMap::cell_of(double x, double y) const {
+  // Clamp before converting so a wild coordinate cannot overflow int32; such cells are rejected
+  // by key_in_range() anyway.
+  constexpr double kLimit = 1e9;
+  const double fx = std::clamp(std::floor(x / config_.cell_size), -kLimit, kLimit);
+  const double fy = std::clamp(std::floor(y / config_.cell_size), -kLimit, kLimit);
+  return {static_cast<std::int32_t>(fx), static_cast<std::int32_t>(fy)};
+}
+
+bool GridMap::key_in_range(TileKey k) const {
+  const std::int32_t m = config_.max_tile_coord;
+  return k.tx >= -m && k.tx <= m && k.ty >= -m && k.ty <= m;
+}
+
+const Tile* GridMap::find_tile(TileKey k) const {
+  const auto it = tiles_.find(k);
+  return it == tiles_.end() ? nullptr : it->second.get();
+}
+
+std::uint32_t GridMap::hit(CellIndex c) const {
+  const Tile* t = find_tile(tile_of(c));
+  return t ? t->hit[static_cast<std::size_t>(((c.y & mask_) << shift_) | (c.x & mask_))] : 0;
+}
+
+std::uint32_t GridMap::err(CellIndex c) const {
+  const Tile* t = find_tile(tile_of(c));
+  return t ? t->err[static_cast<std::size_t>(((c.y & mask_) << shift_) | (c.x & mask_))] : 0;
+}
+
+float GridMap::score(CellIndex c) const {
+  const Tile* t = find_tile(tile_of(c));
+  return t ? t->score[static_cast<std::size_t>(((c.y & mask_) << shift_) | (c.x & mask_))]
+           : kUnknownScore;
+}
+
+float GridMap::value(CellIndex c) const { return std::max(score(c), 0.0f); }
+
+void GridMap::refresh_score(Tile& t, std::size_t i) {
+  const std::uint64_t h = t.hit[i], e = t.err[i];
+  if (h + e == 0) {
+    t.score[i] = kUnknownScore;
+    return;
+  }
+  auto s = static_cast<float>(static_cast<double>(h) / static_cast<double>(h + e));
+  // Keep "score < 1 exactly when err > 0" even where the float ratio rounds up to 1.
+  if (e > 0 && s >= 1.0f) s = std::nextafter(1.0f, 0.0f);
+  t.score[i] = s;
+}
+
+void GridMap::grow_directory(TileKey k) {
+  std::int32_t x0 = k.tx, y0 = k.ty, x1 = k.tx, y1 = k.ty;
+  if (dir_w_ > 0) {
+    const std::int32_t old_x1 = dir_tx0_ + static_cast<std::int32_t>(dir_w_) - 1;
+    const std::int32_t old_y1 = dir_ty0_ + static_cast<std::int32_t>(dir_h_) - 1;
+    x0 = std::min(x0, dir_tx0_);
+    y0 = std::min(y0, dir_ty0_);
+    x1 = std::max(x1, old_x1);
+    y1 = std::max(y1, old_y1);
+    // Grow with a margin on the side that overflowed, so an exploring robot does not re-layout
+    // the directory at every new tile.
+    const std::int32_t mx = std::max<std::int32_t>(4, (x1 - x0 + 1) / 2);
+    const std::int32_t my = std::max<std::int32_t>(4, (y1 - y0 + 1) / 2);
+    if (k.tx < dir_tx0_) x0 -= mx;
+    if (k.tx > old_x1) x1 += mx;
+    if (k.ty < dir_ty0_) y0 -= my;
+    if (k.ty > old_y1) y1 += my;
+  } else {
+    x0 -= 4;
+    y0 -= 4;
+    x1 += 4;
+    y1 += 4;
+  }
+  const std::int32_t m = config_.max_tile_coord;
+  x0 = std::max(x0, -m);
+  y0 = std::max(y0, -m);
+  x1 = std::min(x1, m);
+  y1 = std::min(y1, m);
+  const auto w = static_cast<std::uint32_t>(x1 - x0 + 1);
+  const auto h = static_cast<std::uint32_t>(y1 - y0 + 1);
+  std::vector<const float*> scores(static_cast<std::size_t>(w) * h, nullptr);
+  std::vector<Tile*> tiles(static_cast<std::size_t>(w) * h, nullptr);
+  for (auto& [key, tile] : tiles_) {
+    const std::size_t i =
+        static_cast<std::size_t>(key.ty - y0) * w + static_cast<std::size_t>(key.tx - x0);
+    scores[i] = tile->score.data();
+    tiles[i] = tile.get();
+  }
+  dir_scores_ = std::move(scores);
+  dir_tiles_ = std::move(tiles);
+  dir_tx0_ = x0;
+  dir_ty0_ = y0;
+  dir_w_ = w;
+  dir_h_ = h;
+}
+
+Tile* GridMap::tile_for_write(CellIndex c) {
+  const TileKey k = tile_of(c);
+  const auto dx = static_cast<std::uint32_t>(k.tx - dir_tx0_);
+  const auto dy = static_cast<std::uint32_t>(k.ty - dir_ty0_);
+  if (dx < dir_w_ && dy < dir_h_) {
+    if (Tile* t = dir_tiles_[static_cast<std::size_t>(dy) * dir_w_ + dx]) return t;
+  }
+  if (!key_in_range(k)) return nullptr;
+  auto tile = std::make_unique<Tile>();
+  tile->key = k;
+  const std::size_t n = cells_per_tile();
+  tile->hit.assign(n, 0);
+  tile->err.assign(n, 0);
+  tile->score.assign(n, kUnknownScore);
+  Tile* raw = tile.get();
+  tiles_.emplace(k, std::move(tile));
+  if (dx < dir_w_ && dy < dir_h_) {
+    const std::size_t i = static_cast<std::size_t>(dy) * dir_w_ + dx;
+    dir_tiles_[i] = raw;
+    dir_scores_[i] = raw->score.data();
+  } else {
+    grow_directory(k);
+  }
+  return raw;
+}
+
+namespace {
+inline void saturating_increment(std::uint32_t& v) {
+  if (v != std::numeric_limits<std::uint32_t>::max()) ++v;
+}
+}  // namespace
+
+bool GridMap::add_hit(CellIndex c) {
+  Tile* t = tile_for_write(c);
+  if (t == nullptr) return false;
+  const auto i = static_cast<std::size_t>(((c.y & mask_) << shift_) | (c.x & mask_));
+  saturating_increment(t->hit[i]);
+  refresh_score(*t, i);
+  if (!t->touched) {
+    t->touched = true;
+    touched_.push_back(t);
+  }
+  return true;
+}
+
+bool GridMap::add_err(CellIndex c) {
+  Tile* t = tile_for_write(c);
+  if (t == nullptr) return false;
+  const auto i = static_cast<std::size_t>(((c.y & mask_) << shift_) | (c.x & mask_));
+  saturating_increment(t->err[i]);
+  refresh_score(*t, i);
+  if (!t->touched) {
+    t->touched = true;
+    touched_.push_back(t);
+  }
+  return true;
+}
+
+std::size_t GridMap::commit_update() {
+  const std::size_t n = touched_.size();
+  for (Tile* t : touched_) {
+    t->touched = false;
+    ++t->version;
+    if (!t->dirty) {
+      t->dirty = true;
+      dirty_.push_back(t->key);
+    }
+  }
+  touched_.clear();
+  return n;
+}
+
+std::vector<TileKey> GridMap::take_dirty() {
+  std::vector<TileKey> out;
+  out.swap(dirty_);
+  for (const TileKey& k : out) tiles_.at(k)->dirty = false;
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+void GridMap::mark_all_dirty() {
+  for (auto& [key, tile] : tiles_) {
+    if (!tile->dirty) {
+      tile->dirty = true;
+      dirty_.push_back(key);
+    }
+  }
+}
+
+std::vector<TileKey> GridMap::tile_keys() const {
+  std::vector<TileKey> keys;
+  keys.reserve(tiles_.size());
+  for (const auto& [key, tile] : tiles_) keys.push_back(key);
+  std::sort(keys.begin(), keys.end());
+  return keys;
+}
+
+void GridMap::set_tile(TileKey k, std::uint64_t version, std::span<const std::uint32_t> hit,
+                       std::span<const std::uint32_t> err) {
+  const std::size_t n = cells_per_tile();
+  if (hit.size() != n || err.size() != n) {
+    throw std::invalid_argument("tile (" + std::to_string(k.tx) + ", " + std::to_string(k.ty) +
+                                ") has " + std::to_string(hit.size()) + "/" +
+                                std::to_string(err.size()) + " hit/err cells, expected " +
+                                std::to_string(n));
+  }
+  if (!key_in_range(k)) {
+    throw std::invalid_argument("tile (" + std::to_string(k.tx) + ", " + std::to_string(k.ty) +
+                                ") is outside +-" + std::to_string(config_.max_tile_coord));
+  }
+  Tile* t = tile_for_write(CellIndex{k.tx * config_.tile_edge, k.ty * config_.tile_edge});
+  std::copy(hit.begin(), hit.end(), t->hit.begin());
+  std::copy(err.begin(), err.end(), t->err.begin());
+  for (std::size_t i = 0; i < n; ++i) refresh_score(*t, i);
+  t->version = version;
+}
+
+GridMap::Bounds GridMap::known_bounds() const {
+  Bounds b;
+  const std::int32_t edge = config_.tile_edge;
+  for (const auto& [key, tile] : tiles_) {
+    for (std::int32_t ly = 0; ly < edge; ++ly) {
+      for (std::int32_t lx = 0; lx < edge; ++lx) {
+        const auto i = static_cast<std::size_t>(ly * edge + lx);
+        if (tile->score[i] == kUnknownScore) continue;
+        const CellIndex c{key.tx * edge + lx, key.ty * edge + ly};
+        if (b.empty) {
+          b.min = b.max = c;
+          b.empty = false;
+        } else {
+          b.min = {std::min(b.min.x, c.x), std::min(b.min.y, c.y)};
+          b.max = {std::max(b.max.x, c.x), std::max(b.max.y, c.y)};
+        }
+      }
+    }
+  }
+  return b;
+}
+
+GridMap::Lookup GridMap::lookup() const {
+  Lookup l;
+  l.dir_ = dir_scores_.data();
+  l.tx0_ = dir_tx0_;
+  l.ty0_ = dir_ty0_;
+  l.width_ = dir_w_;
+  l.height_ = dir_h_;
+  l.shift_ = shift_;
+  l.mask_ = mask_;
+  return l;
+}
+
+}  // namespace esfleet
