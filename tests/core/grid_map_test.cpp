@@ -1,1 +1,134 @@
-// placeholder
+#include "esfleet/core/grid_map.hpp"
+
+#include <gtest/gtest.h>
+
+#include <limits>
+#include <stdexcept>
+#include <vector>
+
+namespace esfleet {
+namespace {
+
+TEST(GridMapTest, UnknownCellsReadZero) {
+  GridMap map;
+  EXPECT_EQ(map.hit({5, 7}), 0u);
+  EXPECT_EQ(map.err({5, 7}), 0u);
+  EXPECT_EQ(map.value({5, 7}), 0.0f);
+  EXPECT_EQ(map.score({5, 7}), kUnknownScore);
+  EXPECT_EQ(map.tile_count(), 0u);
+}
+
+TEST(GridMapTest, CellOfFloorsNegativeCoordinates) {
+  GridMap map(GridMapConfig{.cell_size = 0.5});
+  EXPECT_EQ(map.cell_of(0.0, 0.0), (CellIndex{0, 0}));
+  EXPECT_EQ(map.cell_of(0.49, 0.51), (CellIndex{0, 1}));
+  EXPECT_EQ(map.cell_of(-0.01, -0.5), (CellIndex{-1, -1}));
+  EXPECT_EQ(map.cell_of(-0.51, 1e12).x, -2);
+}
+
+TEST(GridMapTest, CountersGiveEquationTwoValue) {
+  GridMap map;
+  const CellIndex c{-3, 130};
+  ASSERT_TRUE(map.add_hit(c));
+  ASSERT_TRUE(map.add_hit(c));
+  ASSERT_TRUE(map.add_hit(c));
+  ASSERT_TRUE(map.add_err(c));
+  EXPECT_EQ(map.hit(c), 3u);
+  EXPECT_EQ(map.err(c), 1u);
+  EXPECT_FLOAT_EQ(map.value(c), 0.75f);
+  EXPECT_FLOAT_EQ(map.score(c), 0.75f);
+  // Tile created on first touch, keyed by floor division.
+  ASSERT_EQ(map.tile_count(), 1u);
+  EXPECT_EQ(map.tile_keys().front(), (TileKey{-1, 2}));
+}
+
+TEST(GridMapTest, ErrOnlyCellScoresZeroButIsKnown) {
+  GridMap map;
+  map.add_err({1, 1});
+  EXPECT_EQ(map.value({1, 1}), 0.0f);
+  EXPECT_EQ(map.score({1, 1}), 0.0f);
+  EXPECT_NE(map.score({1, 1}), kUnknownScore);
+}
+
+TEST(GridMapTest, LookupMatchesScoreEverywhere) {
+  GridMap map(GridMapConfig{.cell_size = 0.05, .tile_edge = 8});
+  // Touch cells spread over many tiles, including negative ones, forcing directory growth.
+  for (int i = -40; i < 40; i += 3) {
+    map.add_hit({i, -i / 2});
+    map.add_err({i * 2, i});
+  }
+  const GridMap::Lookup view = map.lookup();
+  for (int y = -60; y < 60; ++y) {
+    for (int x = -90; x < 90; ++x) {
+      ASSERT_EQ(view.score(x, y), map.score({x, y})) << "cell " << x << "," << y;
+    }
+  }
+}
+
+TEST(GridMapTest, VersionBumpsOncePerCommitAndDirtySetDrains) {
+  GridMap map(GridMapConfig{.cell_size = 0.05, .tile_edge = 16});
+  map.add_hit({0, 0});
+  map.add_err({1, 0});
+  map.add_hit({20, 0});  // second tile
+  EXPECT_EQ(map.commit_update(), 2u);
+  EXPECT_EQ(map.find_tile({0, 0})->version, 1u);
+  EXPECT_EQ(map.find_tile({1, 0})->version, 1u);
+  map.add_hit({0, 0});
+  EXPECT_EQ(map.commit_update(), 1u);
+  EXPECT_EQ(map.find_tile({0, 0})->version, 2u);
+  EXPECT_EQ(map.find_tile({1, 0})->version, 1u);
+  const std::vector<TileKey> dirty = map.take_dirty();
+  ASSERT_EQ(dirty.size(), 2u);  // each tile once, sorted
+  EXPECT_EQ(dirty[0], (TileKey{0, 0}));
+  EXPECT_EQ(dirty[1], (TileKey{1, 0}));
+  EXPECT_TRUE(map.take_dirty().empty());
+  map.mark_all_dirty();
+  EXPECT_EQ(map.take_dirty().size(), 2u);
+}
+
+TEST(GridMapTest, CountersSaturateInsteadOfWrapping) {
+  GridMap map(GridMapConfig{.cell_size = 0.05, .tile_edge = 8});
+  const std::size_t n = map.cells_per_tile();
+  std::vector<std::uint32_t> hit(n, std::numeric_limits<std::uint32_t>::max()), err(n, 1);
+  map.set_tile({0, 0}, 7, hit, err);
+  map.add_hit({0, 0});
+  EXPECT_EQ(map.hit({0, 0}), std::numeric_limits<std::uint32_t>::max());
+  // err > 0 keeps the score strictly below 1 even though the ratio rounds to 1 in float.
+  EXPECT_LT(map.score({0, 0}), 1.0f);
+  EXPECT_EQ(map.find_tile({0, 0})->version, 7u);
+}
+
+TEST(GridMapTest, SetTileRejectsWrongSizesAndFarKeys) {
+  GridMap map(GridMapConfig{.cell_size = 0.05, .tile_edge = 8, .max_tile_coord = 100});
+  std::vector<std::uint32_t> ok(64, 0), bad(63, 0);
+  EXPECT_THROW(map.set_tile({0, 0}, 1, bad, ok), std::invalid_argument);
+  EXPECT_THROW(map.set_tile({101, 0}, 1, ok, ok), std::invalid_argument);
+  EXPECT_EQ(map.tile_count(), 0u);
+  EXPECT_FALSE(map.add_hit({8 * 101, 0}));
+  EXPECT_EQ(map.tile_count(), 0u);
+  EXPECT_NO_THROW(map.set_tile({-100, 100}, 1, ok, ok));
+}
+
+TEST(GridMapTest, KnownBoundsCoverObservedCellsOnly) {
+  GridMap map;
+  EXPECT_TRUE(map.known_bounds().empty);
+  map.add_hit({-5, 3});
+  map.add_err({70, -2});
+  const auto b = map.known_bounds();
+  ASSERT_FALSE(b.empty);
+  EXPECT_EQ(b.min, (CellIndex{-5, -2}));
+  EXPECT_EQ(b.max, (CellIndex{70, 3}));
+}
+
+TEST(GridMapTest, ConfigValidationNamesField) {
+  try {
+    GridMap map(GridMapConfig{.cell_size = 0.05, .tile_edge = 48});
+    FAIL() << "tile_edge 48 accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("tile_edge"), std::string::npos);
+  }
+  EXPECT_THROW(GridMap(GridMapConfig{.cell_size = -1.0}), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace esfleet

@@ -1,1 +1,136 @@
-// placeholder
+#include "esfleet/core/map_update.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "esfleet/core/scan_points.hpp"
+
+namespace esfleet {
+namespace {
+
+// Cells of 1 m make the expected counters easy to state by hand.
+GridMap unit_map() { return GridMap(GridMapConfig{.cell_size = 1.0, .tile_edge = 8}); }
+
+LaserScan scan_of(std::vector<float> ranges, float angle_min, float increment) {
+  LaserScan s;
+  s.angle_min = angle_min;
+  s.angle_increment = increment;
+  s.max_range = 81.9f;
+  s.ranges = std::move(ranges);
+  return s;
+}
+
+TEST(MapUpdateTest, StraightBeamErrsCrossedCellsAndHitsEndCell) {
+  GridMap map = unit_map();
+  const auto stats =
+      update_map(map, prepare_scan(scan_of({3.0f}, 0.0f, 0.0f)), Pose2{0.5, 0.5, 0.0});
+  EXPECT_EQ(stats.errs, 3u);
+  EXPECT_EQ(stats.hits, 1u);
+  for (int x = 0; x < 3; ++x) {
+    EXPECT_EQ(map.err({x, 0}), 1u) << x;
+    EXPECT_EQ(map.hit({x, 0}), 0u) << x;
+  }
+  EXPECT_EQ(map.hit({3, 0}), 1u);
+  EXPECT_EQ(map.err({3, 0}), 0u);
+  EXPECT_EQ(map.err({4, 0}), 0u);
+  EXPECT_EQ(map.err({0, 1}), 0u);
+}
+
+TEST(MapUpdateTest, PoseRotationAndTranslationPlaceTheBeam) {
+  GridMap map = unit_map();
+  // Facing +y from (2.5, 2.5): a 2 m beam ends in cell (2, 4).
+  update_map(map, prepare_scan(scan_of({2.0f}, 0.0f, 0.0f)),
+             Pose2{2.5, 2.5, std::numbers::pi / 2});
+  EXPECT_EQ(map.err({2, 2}), 1u);
+  EXPECT_EQ(map.err({2, 3}), 1u);
+  EXPECT_EQ(map.hit({2, 4}), 1u);
+}
+
+TEST(MapUpdateTest, DiagonalBeamVisitsEachCrossedCellOnce) {
+  GridMap map = unit_map();
+  // From (0.2, 0.6) to (3.2, 2.1): a grid walk from cell (0, 0) to cell (3, 2) crosses exactly
+  // |3 - 0| + |2 - 0| = 5 cells before the end cell, each once.
+  const double ang = std::atan2(1.5, 3.0);
+  const float r = static_cast<float>(std::hypot(3.0, 1.5));
+  const auto stats =
+      update_map(map, prepare_scan(scan_of({r}, static_cast<float>(ang), 0.0f)),
+                 Pose2{0.2, 0.6, 0.0});
+  EXPECT_EQ(stats.hits, 1u);
+  EXPECT_EQ(map.hit({3, 2}), 1u);
+  EXPECT_EQ(stats.errs, 3u + 2u);  // |3-0| + |2-0| cells before the end cell
+  std::uint32_t total_err = 0;
+  for (int y = -1; y < 4; ++y)
+    for (int x = -1; x < 5; ++x) total_err += map.err({x, y});
+  EXPECT_EQ(total_err, 5u);
+  EXPECT_EQ(map.err({0, 0}), 1u);
+}
+
+TEST(MapUpdateTest, BeamsSharingCellsAddOncePerBeam) {
+  GridMap map = unit_map();
+  // Two beams at +-1 degree along x: both cross cells (0..3, 0) and end in (4, 0).
+  const float d = static_cast<float>(1.0 * std::numbers::pi / 180.0);
+  update_map(map, prepare_scan(scan_of({4.0f, 4.0f}, -d, 2 * d)), Pose2{0.5, 0.5, 0.0});
+  EXPECT_EQ(map.err({0, 0}), 2u);
+  EXPECT_EQ(map.err({3, 0}), 2u);
+  EXPECT_EQ(map.hit({4, 0}), 2u);
+  EXPECT_FLOAT_EQ(map.value({4, 0}), 1.0f);
+  EXPECT_FLOAT_EQ(map.value({2, 0}), 0.0f);
+}
+
+TEST(MapUpdateTest, NoReturnBeamsAddNoHitAndClearOnlyWhenAsked) {
+  GridMap map = unit_map();
+  const LaserScan s = scan_of({81.91f}, 0.0f, 0.0f);
+  const ScanPoints pts = prepare_scan(s);
+  ASSERT_EQ(pts.size(), 0u);
+  ASSERT_EQ(pts.no_return_angles.size(), 1u);
+  auto stats = update_map(map, pts, Pose2{0.5, 0.5, 0.0});
+  EXPECT_EQ(stats.hits + stats.errs, 0u);
+  EXPECT_EQ(map.tile_count(), 0u);
+  MapUpdateConfig clear;
+  clear.no_return_clear_range = 2.0;
+  stats = update_map(map, pts, Pose2{0.5, 0.5, 0.0}, clear);
+  EXPECT_EQ(stats.hits, 0u);
+  EXPECT_EQ(map.err({0, 0}), 1u);
+  EXPECT_EQ(map.err({1, 0}), 1u);
+  EXPECT_EQ(map.err({2, 0}), 0u);  // end of the clearing ray is not itself cleared
+}
+
+TEST(MapUpdateTest, PaperSamplingCountsEachSampledCellOnce) {
+  GridMap map = unit_map();
+  MapUpdateConfig paper;
+  paper.exact_traversal = false;
+  paper.alpha_res = 4.0;  // 4 samples per metre: 12 samples on a 3 m beam
+  const auto stats =
+      update_map(map, prepare_scan(scan_of({3.0f}, 0.0f, 0.0f)), Pose2{0.5, 0.5, 0.0}, paper);
+  EXPECT_EQ(stats.hits, 1u);
+  EXPECT_EQ(stats.errs, 3u);
+  EXPECT_EQ(map.err({0, 0}), 1u);
+  EXPECT_EQ(map.err({2, 0}), 1u);
+  EXPECT_EQ(map.hit({3, 0}), 1u);
+}
+
+TEST(MapUpdateTest, CommitBumpsVersionOfTouchedTiles) {
+  GridMap map = unit_map();
+  update_map(map, prepare_scan(scan_of({10.0f}, 0.0f, 0.0f)), Pose2{0.5, 0.5, 0.0});
+  // Beam covers cells 0..10 in x: tiles 0 and 1 (edge 8).
+  EXPECT_EQ(map.tile_count(), 2u);
+  EXPECT_EQ(map.find_tile({0, 0})->version, 1u);
+  EXPECT_EQ(map.find_tile({1, 0})->version, 1u);
+  EXPECT_EQ(map.take_dirty().size(), 2u);
+}
+
+TEST(MapUpdateTest, PrepareScanDropsShortAndOverLimitBeams) {
+  const LaserScan s = scan_of({0.05f, 1.0f, 30.0f, 81.95f}, 0.0f, 0.1f);
+  const ScanPoints all = prepare_scan(s);
+  EXPECT_EQ(all.size(), 3u);
+  EXPECT_EQ(all.no_return_angles.size(), 1u);
+  const ScanPoints limited = prepare_scan(s, 0.1f, 20.0f);
+  ASSERT_EQ(limited.size(), 1u);
+  EXPECT_FLOAT_EQ(limited.range[0], 1.0f);
+  EXPECT_NEAR(limited.x[0], std::cos(0.1f), 1e-6);
+}
+
+}  // namespace
+}  // namespace esfleet

@@ -1,0 +1,49 @@
+#pragma once
+// Fitness of a candidate pose (paper, equation under Eq. 9), maximised by the ES:
+//
+//   fit = p_occ * sum_i map(c_i),   p_occ = sum_i hit'(c_i) / (sum_i hit'(c_i) + sum_i err'(c_i))
+//
+// c_i is the cell of beam i's end point under the candidate pose, map(c) = hit / (hit + err)
+// (0 when unknown), hit'(c) = [hit(c) > 0], err'(c) = [err(c) > 0]; p_occ = 0 when both sums are
+// 0. Condition 2 of the paper drops the penalty: fit = sum_i map(c_i).
+//
+// The evaluator pre-scales the end points to cell units once; each evaluation is one rotation,
+// one floor and one 4-byte score load per beam (GridMap::Lookup).
+
+#include <cstdint>
+#include <vector>
+
+#include "esfleet/core/geometry.hpp"
+#include "esfleet/core/grid_map.hpp"
+#include "esfleet/core/scan_points.hpp"
+
+namespace esfleet {
+
+struct FitnessValue {
+  float fitness = 0.0f;   ///< p_occ * sum_map (Condition 1) or sum_map (Condition 2)
+  float sum_map = 0.0f;   ///< sum of map values at the end points
+  float p_occ = 0.0f;     ///< penalty factor
+  std::int32_t n_hit = 0;  ///< end points in cells with hit > 0
+  std::int32_t n_err = 0;  ///< end points in cells with err > 0
+  std::int32_t n_points = 0;
+};
+
+class FitnessEvaluator {
+ public:
+  /// Keeps a reference to nothing but the map's look-up view: the map must not gain tiles
+  /// while the evaluator is used.
+  FitnessEvaluator(const GridMap& map, const ScanPoints& points, bool use_penalty = true);
+
+  FitnessValue evaluate(const Pose2& pose) const;
+  /// Fitness only (the ES hot path).
+  float fitness(const Pose2& pose) const { return evaluate(pose).fitness; }
+  std::size_t size() const { return px_.size(); }
+
+ private:
+  GridMap::Lookup lookup_;
+  double inv_cell_;
+  bool use_penalty_;
+  std::vector<float> px_, py_;  ///< end points in cell units
+};
+
+}  // namespace esfleet

@@ -1,0 +1,39 @@
+#pragma once
+// Map update (paper Algorithm 1): write one scan into the grid at the pose the search chose.
+//
+// For every valid beam, each cell the beam crosses before its end point gets err += 1 and the
+// end-point cell gets hit += 1. The paper samples L_i = ceil(alpha_res * d_i) points along the
+// beam; by default we walk the exact cell sequence instead (Amanatides-Woo traversal: each
+// crossed cell once per beam), the limit of that sampling. No-return beams add no hit; they may
+// clear cells up to a free-space limit (off by default).
+
+#include <cstddef>
+
+#include "esfleet/core/geometry.hpp"
+#include "esfleet/core/grid_map.hpp"
+#include "esfleet/core/scan_points.hpp"
+
+namespace esfleet {
+
+struct MapUpdateConfig {
+  /// true: exact grid traversal (ours, default); false: the paper's L_i = ceil(alpha_res * d_i)
+  /// sample points per beam, each sampled cell counted once per beam.
+  bool exact_traversal = true;
+  double alpha_res = 20.0;  ///< sample points per metre of beam when exact_traversal is false
+  /// No-return beams clear cells up to this range (metres); 0 = they change nothing (default).
+  double no_return_clear_range = 0.0;
+  void validate() const;
+};
+
+struct MapUpdateStats {
+  std::size_t hits = 0;          ///< hit increments
+  std::size_t errs = 0;          ///< err increments
+  std::size_t out_of_range = 0;  ///< cell writes refused (outside the allowed tile range)
+};
+
+/// Inserts `points` seen from `pose` into `map` and commits the update (tile versions bumped
+/// once, touched tiles marked dirty).
+MapUpdateStats update_map(GridMap& map, const ScanPoints& points, const Pose2& pose,
+                          const MapUpdateConfig& config = {});
+
+}  // namespace esfleet
