@@ -45,7 +45,9 @@ EvolutionStrategy::EvolutionStrategy(EsConfig config) : config_(config) { config
 
 template <typename F>
 EsResult EvolutionStrategy::run(F&& fitness, const Pose2& centre,
-                                const std::vector<Correction>& initial, Rng& rng) const {
+                                const std::vector<Correction>& initial, Rng& rng,
+                                int iterations) const {
+  if (iterations < 0) iterations = config_.iterations;
   const auto mu = static_cast<std::size_t>(config_.mu);
   if (initial.size() != mu) {
     throw std::invalid_argument("initial population has " + std::to_string(initial.size()) +
@@ -73,7 +75,7 @@ EsResult EvolutionStrategy::run(F&& fitness, const Pose2& centre,
   const double ax = config_.alpha_xy * 0.01, bx = config_.beta * 0.01;       // cm -> m
   const double at = deg_to_rad(config_.alpha_theta), bt = deg_to_rad(config_.beta);  // deg -> rad
   EsResult result;
-  for (int it = 0; it < config_.iterations; ++it) {
+  for (int it = 0; it < iterations; ++it) {
     const std::size_t k = rng.below(static_cast<std::uint32_t>(mu));
     const Correction& a = pop[k];
     const Correction& b = pop[best];
@@ -97,22 +99,26 @@ EsResult EvolutionStrategy::run(F&& fitness, const Pose2& centre,
     }
   }
   result.best = pop[best];
-  result.pose = apply_correction(centre, pop[best]);
-  result.evaluations = config_.mu + config_.iterations;
+  result.pose = apply_correction(centre, result.best);
+  result.evaluations = config_.mu + iterations;
   result.value.fitness = fit[best];
+  result.population = std::move(pop);
   return result;
 }
 
 EsResult EvolutionStrategy::search(const FitnessEvaluator& fitness, const Pose2& centre,
-                                   const std::vector<Correction>& initial, Rng& rng) const {
-  EsResult r = run([&](const Pose2& p) { return fitness.fitness(p); }, centre, initial, rng);
+                                   const std::vector<Correction>& initial, Rng& rng,
+                                   int iterations) const {
+  EsResult r =
+      run([&](const Pose2& p) { return fitness.fitness(p); }, centre, initial, rng, iterations);
   r.value = fitness.evaluate(r.pose);
   return r;
 }
 
 EsResult EvolutionStrategy::search(const PoseFitness& fitness, const Pose2& centre,
-                                   const std::vector<Correction>& initial, Rng& rng) const {
-  return run([&](const Pose2& p) { return fitness(p); }, centre, initial, rng);
+                                   const std::vector<Correction>& initial, Rng& rng,
+                                   int iterations) const {
+  return run([&](const Pose2& p) { return fitness(p); }, centre, initial, rng, iterations);
 }
 
 }  // namespace esfleet

@@ -1,14 +1,20 @@
 #include "esfleet/core/fitness.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace esfleet {
 
-FitnessEvaluator::FitnessEvaluator(const GridMap& map, const ScanPoints& points, bool use_penalty)
-    : lookup_(map.lookup()), inv_cell_(1.0 / map.cell_size()), use_penalty_(use_penalty) {
-  px_.reserve(points.size());
-  py_.reserve(points.size());
-  for (std::size_t i = 0; i < points.size(); ++i) {
+FitnessEvaluator::FitnessEvaluator(const GridMap& map, const ScanPoints& points, bool use_penalty,
+                                   int level, int stride, bool interpolate)
+    : lookup_(map.lookup(level)),
+      inv_cell_(1.0 / (map.cell_size() * static_cast<double>(1 << level))),
+      use_penalty_(use_penalty),
+      interpolate_(interpolate) {
+  const auto step = static_cast<std::size_t>(std::max(stride, 1));
+  px_.reserve(points.size() / step + 1);
+  py_.reserve(points.size() / step + 1);
+  for (std::size_t i = 0; i < points.size(); i += step) {
     px_.push_back(static_cast<float>(points.x[i] * inv_cell_));
     py_.push_back(static_cast<float>(points.y[i] * inv_cell_));
   }
@@ -37,8 +43,19 @@ FitnessValue FitnessEvaluator::evaluate(const Pose2& pose) const {
   for (std::size_t i = 0; i < n; ++i) {
     const float wx = fx + c * px_[i] - s * py_[i];
     const float wy = fy + s * px_[i] + c * py_[i];
-    const float v = lookup_.score(fast_floor(wx), fast_floor(wy));
-    sum += v > 0.0f ? v : 0.0f;
+    const std::int32_t ix = fast_floor(wx), iy = fast_floor(wy);
+    const float v = lookup_.score(ix, iy);
+    if (interpolate_) {
+      // Bilinear over the four cell centres around the point (map values, unknown = 0).
+      const float gx = wx - 0.5f, gy = wy - 0.5f;
+      const std::int32_t x0 = fast_floor(gx), y0 = fast_floor(gy);
+      const float ax = gx - static_cast<float>(x0), ay = gy - static_cast<float>(y0);
+      auto val = [&](std::int32_t x, std::int32_t y) { return std::max(lookup_.score(x, y), 0.0f); };
+      sum += (1 - ay) * ((1 - ax) * val(x0, y0) + ax * val(x0 + 1, y0)) +
+             ay * ((1 - ax) * val(x0, y0 + 1) + ax * val(x0 + 1, y0 + 1));
+    } else {
+      sum += v > 0.0f ? v : 0.0f;
+    }
     n_hit += v > 0.0f;
     n_err += (v >= 0.0f) & (v < 1.0f);
   }

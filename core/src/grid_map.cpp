@@ -18,6 +18,10 @@ void GridMapConfig::validate() const {
     throw std::invalid_argument("map.tile_edge must be a power of two in [8, 1024], got " +
                                 std::to_string(tile_edge));
   }
+  if (pyramid_levels < 0 || pyramid_levels > 4 || (1 << pyramid_levels) > tile_edge) {
+    throw std::invalid_argument("map.pyramid_levels must be in [0, 4] with 2^levels <= tile_edge, got " +
+                                std::to_string(pyramid_levels));
+  }
   if (max_tile_coord < 1 || max_tile_coord > 1 << 14) {
     throw std::invalid_argument("map.max_tile_coord must be in [1, 16384], got " +
                                 std::to_string(max_tile_coord));
@@ -28,6 +32,9 @@ GridMap::GridMap(GridMapConfig config) : config_(config) {
   config_.validate();
   shift_ = std::countr_zero(static_cast<unsigned>(config_.tile_edge));
   mask_ = config_.tile_edge - 1;
+  unknown_tile_.assign(cells_per_tile(), kUnknownScore);
+  dir_levels_.assign(static_cast<std::size_t>(config_.pyramid_levels) + 1,
+                     std::vector<const float*>(1, unknown_tile_.data()));
 }
 
 GridMap::GridMap(GridMap&&) noexcept = default;
@@ -113,20 +120,45 @@ void GridMap::grow_directory(TileKey k) {
   y1 = std::min(y1, m);
   const auto w = static_cast<std::uint32_t>(x1 - x0 + 1);
   const auto h = static_cast<std::uint32_t>(y1 - y0 + 1);
-  std::vector<const float*> scores(static_cast<std::size_t>(w) * h, nullptr);
-  std::vector<Tile*> tiles(static_cast<std::size_t>(w) * h, nullptr);
-  for (auto& [key, tile] : tiles_) {
-    const std::size_t i =
-        static_cast<std::size_t>(key.ty - y0) * w + static_cast<std::size_t>(key.tx - x0);
-    scores[i] = tile->score.data();
-    tiles[i] = tile.get();
-  }
-  dir_scores_ = std::move(scores);
-  dir_tiles_ = std::move(tiles);
+  const std::size_t n = static_cast<std::size_t>(w) * h;
+  dir_tiles_.assign(n, nullptr);
+  for (auto& level : dir_levels_) level.assign(n + 1, unknown_tile_.data());
   dir_tx0_ = x0;
   dir_ty0_ = y0;
   dir_w_ = w;
   dir_h_ = h;
+  for (auto& [key, tile] : tiles_) {
+    set_directory_entry(
+        static_cast<std::size_t>(key.ty - y0) * w + static_cast<std::size_t>(key.tx - x0),
+        tile.get());
+  }
+}
+
+void GridMap::set_directory_entry(std::size_t i, Tile* t) {
+  dir_tiles_[i] = t;
+  dir_levels_[0][i] = t->score.data();
+  for (std::size_t k = 1; k < dir_levels_.size(); ++k) dir_levels_[k][i] = t->coarse[k - 1].data();
+}
+
+void GridMap::rebuild_coarse(Tile& t) const {
+  // Level k from level k-1: each coarse cell is the max of its 2x2 children, so it is the max
+  // over the 2^k x 2^k full-resolution cells it covers. kUnknownScore (-1) loses to any known
+  // score, so a coarse cell is unknown only when all its cells are.
+  const float* finer = t.score.data();
+  std::size_t finer_edge = static_cast<std::size_t>(config_.tile_edge);
+  for (auto& level : t.coarse) {
+    const std::size_t edge = finer_edge / 2;
+    for (std::size_t y = 0; y < edge; ++y) {
+      const float* r0 = finer + (2 * y) * finer_edge;
+      const float* r1 = r0 + finer_edge;
+      for (std::size_t x = 0; x < edge; ++x) {
+        level[y * edge + x] =
+            std::max(std::max(r0[2 * x], r0[2 * x + 1]), std::max(r1[2 * x], r1[2 * x + 1]));
+      }
+    }
+    finer = level.data();
+    finer_edge = edge;
+  }
 }
 
 Tile* GridMap::tile_for_write(CellIndex c) {
@@ -143,12 +175,13 @@ Tile* GridMap::tile_for_write(CellIndex c) {
   tile->hit.assign(n, 0);
   tile->err.assign(n, 0);
   tile->score.assign(n, kUnknownScore);
+  for (int level = 1; level <= config_.pyramid_levels; ++level) {
+    tile->coarse.emplace_back(n >> (2 * level), kUnknownScore);
+  }
   Tile* raw = tile.get();
   tiles_.emplace(k, std::move(tile));
   if (dx < dir_w_ && dy < dir_h_) {
-    const std::size_t i = static_cast<std::size_t>(dy) * dir_w_ + dx;
-    dir_tiles_[i] = raw;
-    dir_scores_[i] = raw->score.data();
+    set_directory_entry(static_cast<std::size_t>(dy) * dir_w_ + dx, raw);
   } else {
     grow_directory(k);
   }
@@ -191,6 +224,7 @@ std::size_t GridMap::commit_update() {
   const std::size_t n = touched_.size();
   for (Tile* t : touched_) {
     t->touched = false;
+    rebuild_coarse(*t);
     ++t->version;
     if (!t->dirty) {
       t->dirty = true;
@@ -243,6 +277,7 @@ void GridMap::set_tile(TileKey k, std::uint64_t version, std::span<const std::ui
   std::copy(hit.begin(), hit.end(), t->hit.begin());
   std::copy(err.begin(), err.end(), t->err.begin());
   for (std::size_t i = 0; i < n; ++i) refresh_score(*t, i);
+  rebuild_coarse(*t);
   t->version = version;
 }
 
@@ -268,15 +303,20 @@ GridMap::Bounds GridMap::known_bounds() const {
   return b;
 }
 
-GridMap::Lookup GridMap::lookup() const {
+GridMap::Lookup GridMap::lookup(int level) const {
+  if (level < 0 || level > config_.pyramid_levels) {
+    throw std::invalid_argument("map level " + std::to_string(level) + " not kept (pyramid_levels " +
+                                std::to_string(config_.pyramid_levels) + ")");
+  }
   Lookup l;
-  l.dir_ = dir_scores_.data();
+  l.dir_ = dir_levels_[static_cast<std::size_t>(level)].data();
   l.tx0_ = dir_tx0_;
   l.ty0_ = dir_ty0_;
   l.width_ = dir_w_;
   l.height_ = dir_h_;
-  l.shift_ = shift_;
-  l.mask_ = mask_;
+  l.shift_ = shift_ - level;
+  l.mask_ = mask_ >> level;
+  l.outside_ = static_cast<std::size_t>(dir_w_) * dir_h_;
   return l;
 }
 

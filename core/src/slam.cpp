@@ -4,6 +4,7 @@
 #include <stdexcept>
 
 #include "esfleet/core/scan_points.hpp"
+#include <string>
 
 namespace esfleet {
 
@@ -19,6 +20,12 @@ void SlamConfig::validate() const {
   if (!(init_sigma_theta_deg >= 0.0) || !std::isfinite(init_sigma_theta_deg)) {
     throw std::invalid_argument("slam.init_sigma_theta_deg must be >= 0");
   }
+  if (coarse_level < 0 || coarse_level > map.pyramid_levels) {
+    throw std::invalid_argument("slam.coarse_level must be in [0, map.pyramid_levels = " +
+                                std::to_string(map.pyramid_levels) + "]");
+  }
+  if (coarse_iterations < 0) throw std::invalid_argument("slam.coarse_iterations must be >= 0");
+  if (coarse_stride < 1) throw std::invalid_argument("slam.coarse_stride must be >= 1");
 }
 
 SlamConfig SlamConfig::paper() {
@@ -26,6 +33,9 @@ SlamConfig SlamConfig::paper() {
   c.prediction = MotionPrediction::kPreviousPose;
   c.use_odometry = false;
   c.use_penalty = true;
+  c.motion_hypotheses = false;
+  c.coarse_level = 0;
+  c.map.pyramid_levels = 0;
   return c;
 }
 
@@ -34,12 +44,19 @@ Slam::Slam(SlamConfig config)
   config_.validate();
 }
 
-Pose2 Slam::predict(const LaserScan& scan) const {
+namespace {
+Correction correction_between(const Pose2& centre, const Pose2& p) {
+  return {p.x - centre.x, p.y - centre.y, normalize_angle(p.theta - centre.theta)};
+}
+}  // namespace
+
+Pose2 Slam::predict(const LaserScan& scan, std::vector<Pose2>* alternatives) const {
   const Pose2& prev = trajectory_.back().pose;
+  std::optional<Pose2> odom, velocity;
   if (config_.use_odometry && scan.odometry && last_odometry_) {
-    return prev.compose(scan.odometry->relative_to(*last_odometry_));
+    odom = prev.compose(scan.odometry->relative_to(*last_odometry_));
   }
-  if (config_.prediction == MotionPrediction::kConstantVelocity && trajectory_.size() >= 2) {
+  if (trajectory_.size() >= 2) {
     const TimedPose& a = trajectory_[trajectory_.size() - 2];
     const TimedPose& b = trajectory_.back();
     const Pose2 motion = b.pose.relative_to(a.pose);
@@ -48,9 +65,45 @@ Pose2 Slam::predict(const LaserScan& scan) const {
     // Scale the last motion by the time ratio; fall back to one step when stamps are odd.
     double k = (dt_prev > 1e-6 && dt > 0.0) ? dt / dt_prev : 1.0;
     k = std::clamp(k, 0.0, 3.0);
-    return prev.compose({motion.x * k, motion.y * k, motion.theta * k});
+    velocity = prev.compose({motion.x * k, motion.y * k, motion.theta * k});
   }
-  return prev;
+  Pose2 centre = prev;
+  if (odom) {
+    centre = *odom;
+  } else if (config_.prediction == MotionPrediction::kConstantVelocity && velocity) {
+    centre = *velocity;
+  }
+  if (alternatives != nullptr) {
+    alternatives->push_back(prev);
+    if (velocity) alternatives->push_back(*velocity);
+    if (odom) alternatives->push_back(*odom);
+  }
+  return centre;
+}
+
+EsResult Slam::search(const ScanPoints& points, const Pose2& centre,
+                      const std::vector<Pose2>& alternatives) {
+  std::vector<Correction> extra;
+  if (config_.motion_hypotheses) {
+    for (const Pose2& p : alternatives) extra.push_back(correction_between(centre, p));
+  }
+  const FitnessEvaluator fine(map_, points, config_.use_penalty);
+  if (config_.coarse_level <= 0) {
+    return es_.search(fine, centre,
+                      make_initial_population(config_.es.mu, config_.init_sigma_xy,
+                                              deg_to_rad(config_.init_sigma_theta_deg), rng_,
+                                              extra),
+                      rng_);
+  }
+  const FitnessEvaluator coarse(map_, points, config_.use_penalty, config_.coarse_level,
+                                config_.coarse_stride);
+  const int coarse_iterations = std::min(config_.coarse_iterations, config_.es.iterations);
+  const EsResult rc =
+      es_.search(coarse, centre,
+                 make_initial_population(config_.es.mu, config_.coarse_sigma_xy,
+                                         deg_to_rad(config_.coarse_sigma_theta_deg), rng_, extra),
+                 rng_, coarse_iterations);
+  return es_.search(fine, centre, rc.population, rng_, config_.es.iterations - coarse_iterations);
 }
 
 SlamStep Slam::process(const LaserScan& scan) {
@@ -60,11 +113,9 @@ SlamStep Slam::process(const LaserScan& scan) {
     step.inserted = true;
     step.update = update_map(map_, points, step.pose, config_.update);
   } else {
-    step.predicted = predict(scan);
-    const FitnessEvaluator evaluator(map_, points, config_.use_penalty);
-    const auto initial = make_initial_population(config_.es.mu, config_.init_sigma_xy,
-                                                 deg_to_rad(config_.init_sigma_theta_deg), rng_);
-    const EsResult r = es_.search(evaluator, step.predicted, initial, rng_);
+    std::vector<Pose2> alternatives;
+    step.predicted = predict(scan, &alternatives);
+    const EsResult r = search(points, step.predicted, alternatives);
     step.pose = r.pose;
     step.fitness = r.value;
     step.inserted = true;

@@ -54,6 +54,7 @@ struct EsResult {
   FitnessValue value;  ///< full fitness terms at the best pose
   int replacements = 0;  ///< children that entered the population
   int evaluations = 0;   ///< fitness evaluations made (mu + T)
+  std::vector<Correction> population;  ///< the final population (e.g. to refine further)
 };
 
 /// The zero correction, then `extra` (e.g. other motion hypotheses), then normal draws
@@ -70,17 +71,18 @@ class EvolutionStrategy {
   explicit EvolutionStrategy(EsConfig config = {});
   const EsConfig& config() const { return config_; }
 
-  /// Runs T iterations from `initial` (must hold exactly mu individuals).
+  /// Runs `iterations` iterations (< 0: the configured T) from `initial` (must hold exactly mu
+  /// individuals).
   EsResult search(const FitnessEvaluator& fitness, const Pose2& centre,
-                  const std::vector<Correction>& initial, Rng& rng) const;
+                  const std::vector<Correction>& initial, Rng& rng, int iterations = -1) const;
   /// Same with a generic fitness (slower: std::function per call); `value` holds only fitness.
   EsResult search(const PoseFitness& fitness, const Pose2& centre,
-                  const std::vector<Correction>& initial, Rng& rng) const;
+                  const std::vector<Correction>& initial, Rng& rng, int iterations = -1) const;
 
  private:
   template <typename F>
   EsResult run(F&& fitness, const Pose2& centre, const std::vector<Correction>& initial,
-               Rng& rng) const;
+               Rng& rng, int iterations) const;
   EsConfig config_;
 };
 

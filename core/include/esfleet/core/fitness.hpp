@@ -31,8 +31,10 @@ struct FitnessValue {
 class FitnessEvaluator {
  public:
   /// Keeps a reference to nothing but the map's look-up view: the map must not gain tiles
-  /// while the evaluator is used.
-  FitnessEvaluator(const GridMap& map, const ScanPoints& points, bool use_penalty = true);
+  /// while the evaluator is used. `level` selects the map pyramid level (0 = full resolution);
+  /// `stride` > 1 uses every stride-th end point only (for coarse levels).
+  FitnessEvaluator(const GridMap& map, const ScanPoints& points, bool use_penalty = true,
+                   int level = 0, int stride = 1, bool interpolate = false);
 
   FitnessValue evaluate(const Pose2& pose) const;
   /// Fitness only (the ES hot path).
@@ -43,6 +45,7 @@ class FitnessEvaluator {
   GridMap::Lookup lookup_;
   double inv_cell_;
   bool use_penalty_;
+  bool interpolate_;
   std::vector<float> px_, py_;  ///< end points in cell units
 };
 

@@ -54,6 +54,9 @@ struct GridMapConfig {
   /// Tiles may exist only with |tx|, |ty| <= this: bounds the directory and rejects absurd
   /// coordinates (64-cell tiles of 5 cm: +-3.3 km).
   int max_tile_coord = 1024;
+  /// Coarse levels kept for coarse-to-fine search (ours, not in the paper): level k has cells
+  /// 2^k times larger whose score is the maximum score of the cells they cover. 0 = none.
+  int pyramid_levels = 0;
   /// Throws std::invalid_argument naming the offending field.
   void validate() const;
 };
@@ -66,6 +69,8 @@ struct Tile {
   std::vector<std::uint32_t> hit;
   std::vector<std::uint32_t> err;
   std::vector<float> score;  ///< derived from hit/err, see kUnknownScore
+  /// coarse[k - 1]: level-k scores, (edge >> k)^2 cells, max over the 2^k x 2^k cells covered.
+  std::vector<std::vector<float>> coarse;
   bool touched = false;      ///< changed since the last commit_update()
   bool dirty = false;        ///< in the dirty set (changed since the last take_dirty())
 };
@@ -130,16 +135,19 @@ class GridMap {
   /// Bounding box of cells with hit + err > 0.
   Bounds known_bounds() const;
 
-  /// Read-only view for the pose search; valid until the next tile is created.
+  /// Read-only view of pyramid level `level` (0 = full resolution, cells of cell_size; level k
+  /// cells of cell_size * 2^k) for the pose search; valid until the next tile is created.
   class Lookup {
    public:
+    /// Branch-free: a missing tile, and any cell outside the directory, reads from a shared
+    /// all-unknown tile (the directory's last entry), so the hot loop has no unpredictable
+    /// branches.
     float score(std::int32_t cx, std::int32_t cy) const {
       const auto tx = static_cast<std::uint32_t>((cx >> shift_) - tx0_);
       const auto ty = static_cast<std::uint32_t>((cy >> shift_) - ty0_);
-      if (tx >= width_ || ty >= height_) return kUnknownScore;
-      const float* t = dir_[ty * width_ + tx];
-      if (t == nullptr) return kUnknownScore;
-      return t[((cy & mask_) << shift_) | (cx & mask_)];
+      const bool inside = (tx < width_) & (ty < height_);
+      const std::size_t tile = inside ? static_cast<std::size_t>(ty) * width_ + tx : outside_;
+      return dir_[tile][((cy & mask_) << shift_) | (cx & mask_)];
     }
 
    private:
@@ -147,15 +155,19 @@ class GridMap {
     const float* const* dir_ = nullptr;
     std::int32_t tx0_ = 0, ty0_ = 0;
     std::uint32_t width_ = 0, height_ = 0;
+    std::size_t outside_ = 0;  ///< directory index of the all-unknown tile
     int shift_ = 0;
     std::int32_t mask_ = 0;
   };
-  Lookup lookup() const;
+  Lookup lookup(int level = 0) const;
+  int pyramid_levels() const { return config_.pyramid_levels; }
 
  private:
   Tile* tile_for_write(CellIndex c);
   void grow_directory(TileKey k);
   static void refresh_score(Tile& t, std::size_t i);
+  void rebuild_coarse(Tile& t) const;
+  void set_directory_entry(std::size_t i, Tile* t);
 
   GridMapConfig config_;
   int shift_ = 6;
@@ -164,7 +176,9 @@ class GridMap {
   std::vector<Tile*> touched_;
   std::vector<TileKey> dirty_;
   // Directory over tiles [dir_tx0_, dir_tx0_ + dir_w_) x [dir_ty0_, dir_ty0_ + dir_h_).
-  std::vector<const float*> dir_scores_;
+  /// [level][tile] score arrays; missing tiles and the extra last entry point at unknown_tile_.
+  std::vector<std::vector<const float*>> dir_levels_;
+  std::vector<float> unknown_tile_;
   std::vector<Tile*> dir_tiles_;
   std::int32_t dir_tx0_ = 0, dir_ty0_ = 0;
   std::uint32_t dir_w_ = 0, dir_h_ = 0;

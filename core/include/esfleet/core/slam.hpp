@@ -16,6 +16,7 @@
 #include "esfleet/core/laser_scan.hpp"
 #include "esfleet/core/map_update.hpp"
 #include "esfleet/core/random.hpp"
+#include "esfleet/core/scan_points.hpp"
 
 namespace esfleet {
 
@@ -37,6 +38,19 @@ struct SlamConfig {
   double init_sigma_xy = 0.05;        ///< metres
   double init_sigma_theta_deg = 2.0;  ///< degrees
   std::uint64_t seed = 1;             ///< seeds the ES; same input + seed = same trajectory
+
+  // --- Beyond the paper (ours). SlamConfig::paper() switches all of these off. ---
+  /// Seed the initial population with every motion hypothesis available (previous pose,
+  /// constant velocity, odometry), not only the one the search is centred on.
+  bool motion_hypotheses = false;
+  /// Coarse-to-fine: run the first `coarse_iterations` ES iterations on map pyramid level
+  /// `coarse_level` (cells 2^level larger, max-pooled), then the rest at full resolution from the
+  /// coarse population. 0 = single-level search as in the paper. Needs map.pyramid_levels >= it.
+  int coarse_level = 0;
+  int coarse_iterations = 500;
+  int coarse_stride = 1;                 ///< use every n-th beam at the coarse level
+  double coarse_sigma_xy = 0.2;          ///< initial spread at the coarse level, metres
+  double coarse_sigma_theta_deg = 8.0;   ///< initial spread at the coarse level, degrees
 
   /// Throws std::invalid_argument naming the field.
   void validate() const;
@@ -68,7 +82,10 @@ class Slam {
   std::size_t scans_processed() const { return trajectory_.size(); }
 
  private:
-  Pose2 predict(const LaserScan& scan) const;
+  /// The pose the search is centred on; `alternatives` receives every motion hypothesis.
+  Pose2 predict(const LaserScan& scan, std::vector<Pose2>* alternatives) const;
+  EsResult search(const ScanPoints& points, const Pose2& centre,
+                  const std::vector<Pose2>& alternatives);
 
   SlamConfig config_;
   GridMap map_;

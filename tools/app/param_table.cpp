@@ -1,0 +1,185 @@
+#include "app/param_table.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+
+namespace esfleet::app {
+
+namespace {
+
+std::string dashed(std::string s) {
+  std::replace(s.begin(), s.end(), '_', '-');
+  return s;
+}
+
+std::string trimmed(const std::string& s) {
+  const auto b = s.find_first_not_of(" \t");
+  const auto e = s.find_last_not_of(" \t");
+  return b == std::string::npos ? std::string() : s.substr(b, e - b + 1);
+}
+
+double parse_double(const std::string& text) {
+  const std::string t = trimmed(text);
+  double v = 0.0;
+  const auto [ptr, ec] = std::from_chars(t.data(), t.data() + t.size(), v);
+  if (ec != std::errc() || ptr != t.data() + t.size() || t.empty() || !std::isfinite(v)) {
+    throw std::invalid_argument("expected a finite number, got '" + text + "'");
+  }
+  return v;
+}
+
+template <typename Int>
+Int parse_int(const std::string& text) {
+  const std::string t = trimmed(text);
+  Int v = 0;
+  const auto [ptr, ec] = std::from_chars(t.data(), t.data() + t.size(), v);
+  if (ec != std::errc() || ptr != t.data() + t.size() || t.empty()) {
+    throw std::invalid_argument("expected an integer, got '" + text + "'");
+  }
+  return v;
+}
+
+std::string show_double(double v) {
+  std::ostringstream os;
+  os.precision(10);
+  os << v;
+  return os.str();
+}
+
+}  // namespace
+
+void ParamTable::add(std::string name, std::string help,
+                     std::function<void(const std::string&)> set,
+                     std::function<std::string()> get) {
+  Param p;
+  p.name = std::move(name);
+  p.help = std::move(help);
+  p.set = std::move(set);
+  p.get = std::move(get);
+  params_.push_back(std::move(p));
+}
+
+ParamTable::Param* ParamTable::find(const std::string& name) {
+  for (Param& p : params_)
+    if (p.name == name) return &p;
+  return nullptr;
+}
+
+void ParamTable::add_double(const std::string& name, double* field, const std::string& help) {
+  add(name, help, [field](const std::string& s) { *field = parse_double(s); },
+       [field] { return show_double(*field); });
+}
+
+void ParamTable::add_float(const std::string& name, float* field, const std::string& help) {
+  add(name, help, [field](const std::string& s) { *field = static_cast<float>(parse_double(s)); },
+       [field] { return show_double(*field); });
+}
+
+void ParamTable::add_int(const std::string& name, int* field, const std::string& help) {
+  add(name, help, [field](const std::string& s) { *field = parse_int<int>(s); },
+       [field] { return std::to_string(*field); });
+}
+
+void ParamTable::add_u64(const std::string& name, std::uint64_t* field, const std::string& help) {
+  add(name, help, [field](const std::string& s) { *field = parse_int<std::uint64_t>(s); },
+       [field] { return std::to_string(*field); });
+}
+
+void ParamTable::add_switch(const std::string& name, bool* field, const std::string& help) {
+  add(name, help + " (on|off)",
+       [field](const std::string& s) {
+         const std::string t = trimmed(s);
+         if (t == "on" || t == "true" || t == "yes" || t == "1") {
+           *field = true;
+         } else if (t == "off" || t == "false" || t == "no" || t == "0") {
+           *field = false;
+         } else {
+           throw std::invalid_argument("expected on or off, got '" + s + "'");
+         }
+       },
+       [field] { return std::string(*field ? "on" : "off"); });
+}
+
+void ParamTable::add_choice(const std::string& name, std::vector<std::string> choices,
+                            std::function<void(const std::string&)> set,
+                            std::function<std::string()> get, const std::string& help) {
+  std::string list;
+  for (const auto& c : choices) list += (list.empty() ? "" : "|") + c;
+  add(name, help + " (" + list + ")",
+       [choices, set, list](const std::string& s) {
+         const std::string t = trimmed(s);
+         if (std::find(choices.begin(), choices.end(), t) == choices.end()) {
+           throw std::invalid_argument("expected one of " + list + ", got '" + s + "'");
+         }
+         set(t);
+       },
+       std::move(get));
+}
+
+void ParamTable::bind(CLI::App& app, const std::string& group) {
+  app.add_option("--config", config_path_,
+                 "YAML file of parameters (keys as the flags below, with '_' for '-'); flags on "
+                 "the command line override it")
+      ->check(CLI::ExistingFile)
+      ->group(group);
+  for (Param& p : params_) {
+    p.option = app.add_option("--" + dashed(p.name), p.cli_value, p.help)
+                   ->default_str(p.get())
+                   ->group(group);
+  }
+}
+
+void ParamTable::apply() {
+  if (!config_path_.empty()) load_yaml(config_path_);
+  for (Param& p : params_) {
+    if (p.option == nullptr || p.option->count() == 0) continue;
+    try {
+      p.set(p.cli_value);
+    } catch (const std::invalid_argument& e) {
+      throw std::runtime_error("--" + dashed(p.name) + ": " + e.what());
+    }
+  }
+}
+
+void ParamTable::load_yaml(const std::string& path) {
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(path);
+  } catch (const YAML::BadFile&) {
+    throw std::runtime_error(path + ": cannot open");
+  } catch (const YAML::Exception& e) {
+    throw std::runtime_error(path + ":" + std::to_string(e.mark.line + 1) + ": " + e.msg);
+  }
+  if (root.IsNull()) return;  // an empty file sets nothing
+  if (!root.IsMap()) throw std::runtime_error(path + ": top level must be a map of parameters");
+  for (const auto& kv : root) {
+    const auto line = std::to_string(kv.first.Mark().line + 1);
+    const std::string key = kv.first.as<std::string>();
+    Param* p = find(key);
+    if (p == nullptr) {
+      throw std::runtime_error(path + ":" + line + ": unknown parameter '" + key + "'");
+    }
+    if (!kv.second.IsScalar()) {
+      throw std::runtime_error(path + ":" + line + ": '" + key + "' must be a single value");
+    }
+    try {
+      p->set(kv.second.Scalar());
+    } catch (const std::invalid_argument& e) {
+      throw std::runtime_error(path + ":" + line + ": '" + key + "': " + e.what());
+    }
+  }
+}
+
+std::vector<std::pair<std::string, std::string>> ParamTable::values() const {
+  std::vector<std::pair<std::string, std::string>> out;
+  for (const Param& p : params_) out.emplace_back(p.name, p.get());
+  return out;
+}
+
+}  // namespace esfleet::app

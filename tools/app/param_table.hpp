@@ -1,0 +1,57 @@
+#pragma once
+// One table of named parameters shared by the command line and YAML config files, so every
+// parameter has exactly one name, one help text and one parser. Precedence: defaults (the
+// config structs' in-class values), then the YAML file (--config), then flags given on the
+// command line. Unknown YAML keys and unparsable values are errors naming the file, line and key.
+
+#include <functional>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+namespace esfleet::app {
+
+class ParamTable {
+ public:
+  void add_double(const std::string& name, double* field, const std::string& help);
+  void add_float(const std::string& name, float* field, const std::string& help);
+  void add_int(const std::string& name, int* field, const std::string& help);
+  void add_u64(const std::string& name, std::uint64_t* field, const std::string& help);
+  /// on|off (also true|false, yes|no, 1|0).
+  void add_switch(const std::string& name, bool* field, const std::string& help);
+  /// One of `choices` (the setter receives a validated choice; the getter shows the current one).
+  void add_choice(const std::string& name, std::vector<std::string> choices,
+                  std::function<void(const std::string&)> set, std::function<std::string()> get,
+                  const std::string& help);
+
+  /// Registers `--name-with-dashes` for every parameter (in option group `group`) and
+  /// `--config FILE`.
+  void bind(CLI::App& app, const std::string& group = "Parameters");
+  /// After CLI parsing: loads --config (if given) then applies the flags given on the command
+  /// line. Throws std::runtime_error with a precise message.
+  void apply();
+  /// Loads a YAML file whose top level is a map of parameter names (snake_case) to values.
+  void load_yaml(const std::string& path);
+  /// name -> current value as text, for logs and stats.json.
+  std::vector<std::pair<std::string, std::string>> values() const;
+
+ private:
+  struct Param {
+    std::string name;
+    std::string help;
+    std::function<void(const std::string&)> set;  // throws std::invalid_argument
+    std::function<std::string()> get;
+    std::string cli_value;
+    CLI::Option* option = nullptr;
+  };
+  void add(std::string name, std::string help, std::function<void(const std::string&)> set,
+           std::function<std::string()> get);
+  Param* find(const std::string& name);
+
+  std::vector<Param> params_;
+  std::string config_path_;
+};
+
+}  // namespace esfleet::app

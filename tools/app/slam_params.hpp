@@ -1,0 +1,15 @@
+#pragma once
+// The SLAM and log-reader parameters as one ParamTable section, shared by esfleet-leader,
+// esfleet-follower and esfleet-bench so a flag means the same thing everywhere.
+
+#include "app/param_table.hpp"
+#include "esfleet/core/carmen_reader.hpp"
+#include "esfleet/core/slam.hpp"
+
+namespace esfleet::app {
+
+/// Registers every SlamConfig field (names as in docs/parameters.md) and the reader's beam
+/// convention. The pointers must outlive the table.
+void add_slam_params(ParamTable& table, SlamConfig* slam, CarmenReaderOptions* reader);
+
+}  // namespace esfleet::app

@@ -1,0 +1,84 @@
+#include "app/slam_run.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+
+#include "esfleet/core/map_io.hpp"
+#include "esfleet/core/trajectory_io.hpp"
+
+namespace esfleet::app {
+
+SlamRunStats run_slam(Slam& slam, const std::vector<LaserScan>& scans,
+                      const std::atomic<bool>* stop, const SlamProgress& progress) {
+  using Clock = std::chrono::steady_clock;
+  SlamRunStats stats;
+  stats.ms_per_scan.reserve(scans.size());
+  const auto start = Clock::now();
+  for (const LaserScan& scan : scans) {
+    if (stop != nullptr && stop->load()) {
+      stats.interrupted = true;
+      break;
+    }
+    const auto t0 = Clock::now();
+    const SlamStep step = slam.process(scan);
+    const auto t1 = Clock::now();
+    stats.ms_per_scan.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
+    ++stats.scans;
+    stats.inserted += step.inserted ? 1 : 0;
+    if (progress) progress(stats.scans, scans.size(), step);
+  }
+  stats.wall_s = std::chrono::duration<double>(Clock::now() - start).count();
+  return stats;
+}
+
+Summary summarize(std::vector<double> v) {
+  Summary s;
+  if (v.empty()) return s;
+  std::sort(v.begin(), v.end());
+  auto quantile = [&](double q) {
+    const double pos = q * static_cast<double>(v.size() - 1);
+    const auto lo = static_cast<std::size_t>(std::floor(pos));
+    const auto hi = std::min(lo + 1, v.size() - 1);
+    return v[lo] + (pos - static_cast<double>(lo)) * (v[hi] - v[lo]);
+  };
+  s.median = quantile(0.5);
+  s.p95 = quantile(0.95);
+  s.max = v.back();
+  double sum = 0;
+  for (double x : v) sum += x;
+  s.mean = sum / static_cast<double>(v.size());
+  return s;
+}
+
+void write_slam_outputs(const std::string& dir, const Slam& slam, const SlamRunStats& stats,
+                        const nlohmann::json& extra) {
+  std::filesystem::create_directories(dir);
+  save_ros_map(slam.map(), dir, "map");
+  save_map_png(slam.map(), slam.trajectory(), dir + "/map.png");
+  write_trajectory(dir + "/trajectory.txt", slam.trajectory());
+
+  const Summary ms = summarize(stats.ms_per_scan);
+  const GridMap::Bounds b = slam.map().known_bounds();
+  const double cs = slam.map().cell_size();
+  nlohmann::json j = extra;
+  j["scans"] = stats.scans;
+  j["inserted_scans"] = stats.inserted;
+  j["interrupted"] = stats.interrupted;
+  j["wall_s"] = stats.wall_s;
+  j["ms_per_scan_median"] = ms.median;
+  j["ms_per_scan_p95"] = ms.p95;
+  j["ms_per_scan_max"] = ms.max;
+  j["ms_per_scan_mean"] = ms.mean;
+  j["map"] = {
+      {"tiles", slam.map().tile_count()},
+      {"tile_edge", slam.map().tile_edge()},
+      {"cell_size", cs},
+      {"width_m", b.empty ? 0.0 : (b.max.x - b.min.x + 1) * cs},
+      {"height_m", b.empty ? 0.0 : (b.max.y - b.min.y + 1) * cs},
+  };
+  write_file_atomically(dir + "/stats.json", j.dump(2) + "\n");
+}
+
+}  // namespace esfleet::app

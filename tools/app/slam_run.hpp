@@ -1,0 +1,43 @@
+#pragma once
+// Running the SLAM over a whole recorded log and writing its results: shared by the leader's
+// offline mode and the benchmarks.
+
+#include <atomic>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "esfleet/core/laser_scan.hpp"
+#include "esfleet/core/slam.hpp"
+
+namespace esfleet::app {
+
+struct SlamRunStats {
+  std::size_t scans = 0;
+  std::size_t inserted = 0;
+  std::vector<double> ms_per_scan;  ///< wall time of Slam::process per scan
+  double wall_s = 0.0;
+  bool interrupted = false;
+};
+
+/// Progress callback: (scans done, scans total, last step).
+using SlamProgress = std::function<void(std::size_t, std::size_t, const SlamStep&)>;
+
+/// Feeds `scans` through `slam` in order; stops early (interrupted = true) when `stop` is set.
+SlamRunStats run_slam(Slam& slam, const std::vector<LaserScan>& scans,
+                      const std::atomic<bool>* stop = nullptr, const SlamProgress& progress = {});
+
+/// Median, p95, max and mean of a sample (milliseconds in, same out); zeros when empty.
+struct Summary {
+  double median = 0, p95 = 0, max = 0, mean = 0;
+};
+Summary summarize(std::vector<double> values);
+
+/// Writes map.pgm, map.yaml, map.png, trajectory.txt and stats.json into `dir` (created if
+/// needed), each atomically. `extra` is merged into stats.json.
+void write_slam_outputs(const std::string& dir, const Slam& slam, const SlamRunStats& stats,
+                        const nlohmann::json& extra);
+
+}  // namespace esfleet::app
