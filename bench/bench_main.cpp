@@ -1,1 +1,21 @@
-int main() { return 0; }
+// esfleet-bench: benchmark programs that print figures and write them to a file.
+//   slam      per-scan cost of the SLAM on a recorded log: the ES search and the map update
+//             separately, the paper's configuration and ours, in one process.
+#include <CLI/CLI.hpp>
+#include <cstdio>
+
+#include "slam_bench.hpp"
+
+int main(int argc, char** argv) {
+  CLI::App cli{"esfleet-bench: speed and accuracy benchmarks (figures on stdout and in a file)"};
+  cli.require_subcommand(1);
+  esfleet::bench::SlamBenchOptions slam;
+  CLI::App* slam_cmd = cli.add_subcommand(
+      "slam",
+      "ms per scan of the ES search (paper parameters mu=100, T=1000) and of the map update, "
+      "for the paper's configuration and for esfleet's default pipeline, on a CARMEN log");
+  esfleet::bench::add_slam_bench_options(*slam_cmd, slam);
+  CLI11_PARSE(cli, argc, argv);
+  if (slam_cmd->parsed()) return esfleet::bench::run_slam_bench(slam);
+  return 2;
+}

@@ -101,7 +101,8 @@ int main(int argc, char** argv) {
                        step.fitness.fitness, slam.map().tile_count());
         }
       });
-  if (stats.interrupted) spdlog::warn("interrupted after {} scans: saving what we have", stats.scans);
+  if (stats.interrupted)
+    spdlog::warn("interrupted after {} scans: saving what we have", stats.scans);
 
   nlohmann::json extra;
   extra["log"] = log_path;

@@ -19,8 +19,9 @@ void GridMapConfig::validate() const {
                                 std::to_string(tile_edge));
   }
   if (pyramid_levels < 0 || pyramid_levels > 4 || (1 << pyramid_levels) > tile_edge) {
-    throw std::invalid_argument("map.pyramid_levels must be in [0, 4] with 2^levels <= tile_edge, got " +
-                                std::to_string(pyramid_levels));
+    throw std::invalid_argument(
+        "map.pyramid_levels must be in [0, 4] with 2^levels <= tile_edge, got " +
+        std::to_string(pyramid_levels));
   }
   if (max_tile_coord < 1 || max_tile_coord > 1 << 14) {
     throw std::invalid_argument("map.max_tile_coord must be in [1, 16384], got " +
@@ -120,18 +121,21 @@ void GridMap::grow_directory(TileKey k) {
   y1 = std::min(y1, m);
   const auto w = static_cast<std::uint32_t>(x1 - x0 + 1);
   const auto h = static_cast<std::uint32_t>(y1 - y0 + 1);
-  const std::size_t n = static_cast<std::size_t>(w) * h;
+  // Rows are a power of two apart so a look-up computes the slot with a shift.
+  dir_stride_shift_ = std::countr_zero(std::bit_ceil(w));
+  const std::size_t n = (static_cast<std::size_t>(h) << dir_stride_shift_);
   dir_tiles_.assign(n, nullptr);
   for (auto& level : dir_levels_) level.assign(n + 1, unknown_tile_.data());
   dir_tx0_ = x0;
   dir_ty0_ = y0;
   dir_w_ = w;
   dir_h_ = h;
-  for (auto& [key, tile] : tiles_) {
-    set_directory_entry(
-        static_cast<std::size_t>(key.ty - y0) * w + static_cast<std::size_t>(key.tx - x0),
-        tile.get());
-  }
+  for (auto& [key, tile] : tiles_) set_directory_entry(dir_slot(key), tile.get());
+}
+
+std::size_t GridMap::dir_slot(TileKey k) const {
+  return (static_cast<std::size_t>(k.ty - dir_ty0_) << dir_stride_shift_) +
+         static_cast<std::size_t>(k.tx - dir_tx0_);
 }
 
 void GridMap::set_directory_entry(std::size_t i, Tile* t) {
@@ -166,7 +170,7 @@ Tile* GridMap::tile_for_write(CellIndex c) {
   const auto dx = static_cast<std::uint32_t>(k.tx - dir_tx0_);
   const auto dy = static_cast<std::uint32_t>(k.ty - dir_ty0_);
   if (dx < dir_w_ && dy < dir_h_) {
-    if (Tile* t = dir_tiles_[static_cast<std::size_t>(dy) * dir_w_ + dx]) return t;
+    if (Tile* t = dir_tiles_[dir_slot(k)]) return t;
   }
   if (!key_in_range(k)) return nullptr;
   auto tile = std::make_unique<Tile>();
@@ -181,24 +185,24 @@ Tile* GridMap::tile_for_write(CellIndex c) {
   Tile* raw = tile.get();
   tiles_.emplace(k, std::move(tile));
   if (dx < dir_w_ && dy < dir_h_) {
-    set_directory_entry(static_cast<std::size_t>(dy) * dir_w_ + dx, raw);
+    set_directory_entry(dir_slot(k), raw);
   } else {
     grow_directory(k);
   }
   return raw;
 }
 
-namespace {
-inline void saturating_increment(std::uint32_t& v) {
-  if (v != std::numeric_limits<std::uint32_t>::max()) ++v;
-}
-}  // namespace
-
-bool GridMap::add_hit(CellIndex c) {
+bool GridMap::modify(CellIndex c, bool hit_counter, bool increment) {
   Tile* t = tile_for_write(c);
   if (t == nullptr) return false;
   const auto i = static_cast<std::size_t>(((c.y & mask_) << shift_) | (c.x & mask_));
-  saturating_increment(t->hit[i]);
+  std::uint32_t& v = hit_counter ? t->hit[i] : t->err[i];
+  // Saturate at both ends: counters never wrap.
+  if (increment) {
+    if (v != std::numeric_limits<std::uint32_t>::max()) ++v;
+  } else if (v != 0) {
+    --v;
+  }
   refresh_score(*t, i);
   if (!t->touched) {
     t->touched = true;
@@ -207,18 +211,10 @@ bool GridMap::add_hit(CellIndex c) {
   return true;
 }
 
-bool GridMap::add_err(CellIndex c) {
-  Tile* t = tile_for_write(c);
-  if (t == nullptr) return false;
-  const auto i = static_cast<std::size_t>(((c.y & mask_) << shift_) | (c.x & mask_));
-  saturating_increment(t->err[i]);
-  refresh_score(*t, i);
-  if (!t->touched) {
-    t->touched = true;
-    touched_.push_back(t);
-  }
-  return true;
-}
+bool GridMap::add_hit(CellIndex c) { return modify(c, true, true); }
+bool GridMap::add_err(CellIndex c) { return modify(c, false, true); }
+bool GridMap::remove_hit(CellIndex c) { return modify(c, true, false); }
+bool GridMap::remove_err(CellIndex c) { return modify(c, false, false); }
 
 std::size_t GridMap::commit_update() {
   const std::size_t n = touched_.size();
@@ -305,18 +301,20 @@ GridMap::Bounds GridMap::known_bounds() const {
 
 GridMap::Lookup GridMap::lookup(int level) const {
   if (level < 0 || level > config_.pyramid_levels) {
-    throw std::invalid_argument("map level " + std::to_string(level) + " not kept (pyramid_levels " +
+    throw std::invalid_argument("map level " + std::to_string(level) +
+                                " not kept (pyramid_levels " +
                                 std::to_string(config_.pyramid_levels) + ")");
   }
   Lookup l;
   l.dir_ = dir_levels_[static_cast<std::size_t>(level)].data();
   l.tx0_ = dir_tx0_;
   l.ty0_ = dir_ty0_;
-  l.width_ = dir_w_;
-  l.height_ = dir_h_;
+  l.width_ = static_cast<std::int32_t>(dir_w_);
+  l.height_ = static_cast<std::int32_t>(dir_h_);
+  l.stride_shift_ = dir_stride_shift_;
   l.shift_ = shift_ - level;
   l.mask_ = mask_ >> level;
-  l.outside_ = static_cast<std::size_t>(dir_w_) * dir_h_;
+  l.outside_ = static_cast<std::int32_t>(dir_levels_[0].size() - 1);
   return l;
 }
 

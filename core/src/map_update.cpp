@@ -22,15 +22,16 @@ namespace {
 struct Counter {
   GridMap& map;
   MapUpdateStats& stats;
+  bool remove;
   void err(CellIndex c) {
-    if (map.add_err(c)) {
+    if (remove ? map.remove_err(c) : map.add_err(c)) {
       ++stats.errs;
     } else {
       ++stats.out_of_range;
     }
   }
   void hit(CellIndex c) {
-    if (map.add_hit(c)) {
+    if (remove ? map.remove_hit(c) : map.add_hit(c)) {
       ++stats.hits;
     } else {
       ++stats.out_of_range;
@@ -76,9 +77,9 @@ void traverse(double x0, double y0, double x1, double y1, Visit&& visit) {
 }  // namespace
 
 MapUpdateStats update_map(GridMap& map, const ScanPoints& points, const Pose2& pose,
-                          const MapUpdateConfig& config) {
+                          const MapUpdateConfig& config, bool remove, bool commit) {
   MapUpdateStats stats;
-  Counter counter{map, stats};
+  Counter counter{map, stats, remove};
   const double inv = 1.0 / map.cell_size();
   const double c = std::cos(pose.theta), s = std::sin(pose.theta);
   const double sx = pose.x * inv, sy = pose.y * inv;
@@ -113,7 +114,7 @@ MapUpdateStats update_map(GridMap& map, const ScanPoints& points, const Pose2& p
       traverse(sx, sy, ex, ey, [&](CellIndex cell) { counter.err(cell); });
     }
   }
-  map.commit_update();
+  if (commit) map.commit_update();
   return stats;
 }
 

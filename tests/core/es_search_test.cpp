@@ -18,8 +18,8 @@ using testing::make_scan;
 GridMap room_map() {
   GridMap map;
   const auto world = asymmetric_room();
-  const Pose2 poses[] = {{2, 2, 0.3},   {6, 4, 1.2},  {10, 6, -2.0}, {5.5, 7, -1.0},
-                         {2, 5, -0.4},  {10, 1, 2.5}, {6, 1.5, 1.6}, {3, 7, 0.1}};
+  const Pose2 poses[] = {{2, 2, 0.3},  {6, 4, 1.2},  {10, 6, -2.0}, {5.5, 7, -1.0},
+                         {2, 5, -0.4}, {10, 1, 2.5}, {6, 1.5, 1.6}, {3, 7, 0.1}};
   for (const Pose2& p : poses) update_map(map, prepare_scan(make_scan(world, p)), p);
   return map;
 }
@@ -52,8 +52,8 @@ TEST(EsSearchTest, RecoversKnownOffsetOverSeededPoses) {
     if (err < 0.05 && err_deg < 1.0) {
       ++recovered;
     } else {
-      ADD_FAILURE() << "seed " << kSeed << " case " << c << ": error " << err << " m, "
-                    << err_deg << " deg";
+      ADD_FAILURE() << "seed " << kSeed << " case " << c << ": error " << err << " m, " << err_deg
+                    << " deg";
     }
     EXPECT_GE(r.value.fitness, eval.fitness(predicted)) << "case " << c;
     EXPECT_EQ(r.evaluations, 1100);
@@ -81,8 +81,8 @@ TEST(EsSearchTest, MutationFollowsEquationNineOnAQuadratic) {
   // A smooth bowl with its maximum at (0.3, -0.2, 0.1): the ES must climb to it from the
   // origin; this isolates the search from map discretisation.
   const PoseFitness bowl = [](const Pose2& p) {
-    const double d = (p.x - 0.3) * (p.x - 0.3) + (p.y + 0.2) * (p.y + 0.2) +
-                     (p.theta - 0.1) * (p.theta - 0.1);
+    const double d =
+        (p.x - 0.3) * (p.x - 0.3) + (p.y + 0.2) * (p.y + 0.2) + (p.theta - 0.1) * (p.theta - 0.1);
     return static_cast<float>(100.0 - d);
   };
   Rng rng(3);

@@ -41,8 +41,7 @@ TEST(MapUpdateTest, StraightBeamErrsCrossedCellsAndHitsEndCell) {
 TEST(MapUpdateTest, PoseRotationAndTranslationPlaceTheBeam) {
   GridMap map = unit_map();
   // Facing +y from (2.5, 2.5): a 2 m beam ends in cell (2, 4).
-  update_map(map, prepare_scan(scan_of({2.0f}, 0.0f, 0.0f)),
-             Pose2{2.5, 2.5, std::numbers::pi / 2});
+  update_map(map, prepare_scan(scan_of({2.0f}, 0.0f, 0.0f)), Pose2{2.5, 2.5, std::numbers::pi / 2});
   EXPECT_EQ(map.err({2, 2}), 1u);
   EXPECT_EQ(map.err({2, 3}), 1u);
   EXPECT_EQ(map.hit({2, 4}), 1u);
@@ -54,9 +53,8 @@ TEST(MapUpdateTest, DiagonalBeamVisitsEachCrossedCellOnce) {
   // |3 - 0| + |2 - 0| = 5 cells before the end cell, each once.
   const double ang = std::atan2(1.5, 3.0);
   const float r = static_cast<float>(std::hypot(3.0, 1.5));
-  const auto stats =
-      update_map(map, prepare_scan(scan_of({r}, static_cast<float>(ang), 0.0f)),
-                 Pose2{0.2, 0.6, 0.0});
+  const auto stats = update_map(map, prepare_scan(scan_of({r}, static_cast<float>(ang), 0.0f)),
+                                Pose2{0.2, 0.6, 0.0});
   EXPECT_EQ(stats.hits, 1u);
   EXPECT_EQ(map.hit({3, 2}), 1u);
   EXPECT_EQ(stats.errs, 3u + 2u);  // |3-0| + |2-0| cells before the end cell

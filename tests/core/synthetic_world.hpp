@@ -19,11 +19,11 @@ struct Segment {
 /// An asymmetric 12 m x 8 m room with a pillar and an inner wall, so every pose is unique.
 inline std::vector<Segment> asymmetric_room() {
   return {
-      {0, 0, 12, 0},     {12, 0, 12, 8},   {12, 8, 0, 8},    {0, 8, 0, 0},     // outer walls
-      {4, 0, 4, 3},                                                            // inner wall
-      {7, 5, 8, 5},      {8, 5, 8, 6.5},   {8, 6.5, 7, 6.5}, {7, 6.5, 7, 5},   // pillar
-      {9.5, 1.5, 11, 3},                                                       // slanted wall
-      {1.5, 6, 3, 6},                                                          // shelf
+      {0, 0, 12, 0},     {12, 0, 12, 8}, {12, 8, 0, 8},    {0, 8, 0, 0},    // outer walls
+      {4, 0, 4, 3},                                                         // inner wall
+      {7, 5, 8, 5},      {8, 5, 8, 6.5}, {8, 6.5, 7, 6.5}, {7, 6.5, 7, 5},  // pillar
+      {9.5, 1.5, 11, 3},                                                    // slanted wall
+      {1.5, 6, 3, 6},                                                       // shelf
   };
 }
 

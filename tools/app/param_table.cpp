@@ -72,38 +72,43 @@ ParamTable::Param* ParamTable::find(const std::string& name) {
 }
 
 void ParamTable::add_double(const std::string& name, double* field, const std::string& help) {
-  add(name, help, [field](const std::string& s) { *field = parse_double(s); },
-       [field] { return show_double(*field); });
+  add(
+      name, help, [field](const std::string& s) { *field = parse_double(s); },
+      [field] { return show_double(*field); });
 }
 
 void ParamTable::add_float(const std::string& name, float* field, const std::string& help) {
-  add(name, help, [field](const std::string& s) { *field = static_cast<float>(parse_double(s)); },
-       [field] { return show_double(*field); });
+  add(
+      name, help, [field](const std::string& s) { *field = static_cast<float>(parse_double(s)); },
+      [field] { return show_double(*field); });
 }
 
 void ParamTable::add_int(const std::string& name, int* field, const std::string& help) {
-  add(name, help, [field](const std::string& s) { *field = parse_int<int>(s); },
-       [field] { return std::to_string(*field); });
+  add(
+      name, help, [field](const std::string& s) { *field = parse_int<int>(s); },
+      [field] { return std::to_string(*field); });
 }
 
 void ParamTable::add_u64(const std::string& name, std::uint64_t* field, const std::string& help) {
-  add(name, help, [field](const std::string& s) { *field = parse_int<std::uint64_t>(s); },
-       [field] { return std::to_string(*field); });
+  add(
+      name, help, [field](const std::string& s) { *field = parse_int<std::uint64_t>(s); },
+      [field] { return std::to_string(*field); });
 }
 
 void ParamTable::add_switch(const std::string& name, bool* field, const std::string& help) {
-  add(name, help + " (on|off)",
-       [field](const std::string& s) {
-         const std::string t = trimmed(s);
-         if (t == "on" || t == "true" || t == "yes" || t == "1") {
-           *field = true;
-         } else if (t == "off" || t == "false" || t == "no" || t == "0") {
-           *field = false;
-         } else {
-           throw std::invalid_argument("expected on or off, got '" + s + "'");
-         }
-       },
-       [field] { return std::string(*field ? "on" : "off"); });
+  add(
+      name, help + " (on|off)",
+      [field](const std::string& s) {
+        const std::string t = trimmed(s);
+        if (t == "on" || t == "true" || t == "yes" || t == "1") {
+          *field = true;
+        } else if (t == "off" || t == "false" || t == "no" || t == "0") {
+          *field = false;
+        } else {
+          throw std::invalid_argument("expected on or off, got '" + s + "'");
+        }
+      },
+      [field] { return std::string(*field ? "on" : "off"); });
 }
 
 void ParamTable::add_choice(const std::string& name, std::vector<std::string> choices,
@@ -111,15 +116,16 @@ void ParamTable::add_choice(const std::string& name, std::vector<std::string> ch
                             std::function<std::string()> get, const std::string& help) {
   std::string list;
   for (const auto& c : choices) list += (list.empty() ? "" : "|") + c;
-  add(name, help + " (" + list + ")",
-       [choices, set, list](const std::string& s) {
-         const std::string t = trimmed(s);
-         if (std::find(choices.begin(), choices.end(), t) == choices.end()) {
-           throw std::invalid_argument("expected one of " + list + ", got '" + s + "'");
-         }
-         set(t);
-       },
-       std::move(get));
+  add(
+      name, help + " (" + list + ")",
+      [choices, set, list](const std::string& s) {
+        const std::string t = trimmed(s);
+        if (std::find(choices.begin(), choices.end(), t) == choices.end()) {
+          throw std::invalid_argument("expected one of " + list + ", got '" + s + "'");
+        }
+        set(t);
+      },
+      std::move(get));
 }
 
 void ParamTable::bind(CLI::App& app, const std::string& group) {

@@ -25,8 +25,8 @@ void add_slam_params(ParamTable& t, SlamConfig* s, CarmenReaderOptions* r) {
   t.add_choice(
       "prediction", {"previous", "constant-velocity"},
       [s](const std::string& v) {
-        s->prediction = v == "previous" ? MotionPrediction::kPreviousPose
-                                        : MotionPrediction::kConstantVelocity;
+        s->prediction =
+            v == "previous" ? MotionPrediction::kPreviousPose : MotionPrediction::kConstantVelocity;
       },
       [s] {
         return std::string(s->prediction == MotionPrediction::kPreviousPose ? "previous"
@@ -44,12 +44,12 @@ void add_slam_params(ParamTable& t, SlamConfig* s, CarmenReaderOptions* r) {
   t.add_choice(
       "even_beams", {"start", "centered"},
       [r](const std::string& v) {
-        r->even_beams = v == "start" ? EvenBeamConvention::kStartAtMinus90
-                                     : EvenBeamConvention::kCentered;
+        r->even_beams =
+            v == "start" ? EvenBeamConvention::kStartAtMinus90 : EvenBeamConvention::kCentered;
       },
       [r] {
         return std::string(r->even_beams == EvenBeamConvention::kStartAtMinus90 ? "start"
-                                                                                 : "centered");
+                                                                                : "centered");
       },
       "beam angles of FLASER scans with an even beam count: first beam at -90 deg, or centred "
       "(no beam at 0 deg)");

@@ -18,7 +18,10 @@
 // The initial population is the caller's choice (make_initial_population for the usual one).
 // Randomness comes only from the Rng passed in, so a seed fixes the result.
 
+#include <cmath>
 #include <functional>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "esfleet/core/fitness.hpp"
@@ -49,11 +52,11 @@ inline Pose2 apply_correction(const Pose2& centre, const Correction& g) {
 }
 
 struct EsResult {
-  Pose2 pose;          ///< centre (+) best correction
-  Correction best;     ///< the best correction
-  FitnessValue value;  ///< full fitness terms at the best pose
-  int replacements = 0;  ///< children that entered the population
-  int evaluations = 0;   ///< fitness evaluations made (mu + T)
+  Pose2 pose;                          ///< centre (+) best correction
+  Correction best;                     ///< the best correction
+  FitnessValue value;                  ///< full fitness terms at the best pose
+  int replacements = 0;                ///< children that entered the population
+  int evaluations = 0;                 ///< fitness evaluations made (mu + T)
   std::vector<Correction> population;  ///< the final population (e.g. to refine further)
 };
 
@@ -62,6 +65,22 @@ struct EsResult {
 std::vector<Correction> make_initial_population(int mu, double sigma_xy, double sigma_theta,
                                                 Rng& rng,
                                                 const std::vector<Correction>& extra = {});
+
+/// Deterministic local polish (ours, beyond the paper): compass/pattern search from `start`,
+/// steps +-step_xy on x and y and +-step_theta on theta; a step that improves the fitness is
+/// taken, otherwise the steps halve, until step_xy < min_step_xy. Returns the best pose found
+/// (never worse than `start`) and its fitness terms; `evaluations` counts the calls.
+/// With any fitness callable float(const Pose2&); `value` then holds only the fitness.
+template <typename F>
+EsResult refine_pose_with(F&& fitness, const Pose2& start, double step_xy, double step_theta,
+                          double min_step_xy);
+inline EsResult refine_pose(const FitnessEvaluator& fitness, const Pose2& start, double step_xy,
+                            double step_theta, double min_step_xy) {
+  EsResult r = refine_pose_with([&](const Pose2& p) { return fitness.fitness(p); }, start, step_xy,
+                                step_theta, min_step_xy);
+  r.value = fitness.evaluate(r.pose);
+  return r;
+}
 
 /// Any fitness function of a pose (the evaluator's, or a test's).
 using PoseFitness = std::function<float(const Pose2&)>;
@@ -79,11 +98,109 @@ class EvolutionStrategy {
   EsResult search(const PoseFitness& fitness, const Pose2& centre,
                   const std::vector<Correction>& initial, Rng& rng, int iterations = -1) const;
 
- private:
+  /// The ES with any fitness callable float(const Pose2&) (inlined: the hot loop).
   template <typename F>
-  EsResult run(F&& fitness, const Pose2& centre, const std::vector<Correction>& initial,
-               Rng& rng, int iterations) const;
+  EsResult search_with(F&& fitness, const Pose2& centre, const std::vector<Correction>& initial,
+                       Rng& rng, int iterations = -1) const;
+
+ private:
   EsConfig config_;
 };
+
+// ---- implementation of the templates ----
+
+template <typename F>
+EsResult EvolutionStrategy::search_with(F&& fitness, const Pose2& centre,
+                                        const std::vector<Correction>& initial, Rng& rng,
+                                        int iterations) const {
+  if (iterations < 0) iterations = config_.iterations;
+  const auto mu = static_cast<std::size_t>(config_.mu);
+  if (initial.size() != mu) {
+    throw std::invalid_argument("initial population has " + std::to_string(initial.size()) +
+                                " individuals, es.mu is " + std::to_string(mu));
+  }
+  std::vector<Correction> pop = initial;
+  std::vector<float> fit(mu);
+  for (std::size_t k = 0; k < mu; ++k) fit[k] = fitness(apply_correction(centre, pop[k]));
+
+  auto best_index = [&] {
+    std::size_t b = 0;
+    for (std::size_t k = 1; k < mu; ++k)
+      if (fit[k] > fit[b]) b = k;
+    return b;
+  };
+  auto worst_index = [&] {
+    std::size_t w = 0;
+    for (std::size_t k = 1; k < mu; ++k)
+      if (fit[k] < fit[w]) w = k;
+    return w;
+  };
+  std::size_t best = best_index();
+  std::size_t worst = worst_index();
+
+  const double ax = config_.alpha_xy * 0.01, bx = config_.beta * 0.01;               // cm -> m
+  const double at = deg_to_rad(config_.alpha_theta), bt = deg_to_rad(config_.beta);  // deg -> rad
+  EsResult result;
+  for (int it = 0; it < iterations; ++it) {
+    const std::size_t k = rng.below(static_cast<std::uint32_t>(mu));
+    const Correction& a = pop[k];
+    const Correction& b = pop[best];
+    const std::uint64_t bits = rng.next_u64();
+    Correction child{(bits & 1) ? a.dx : b.dx, (bits & 2) ? a.dy : b.dy,
+                     (bits & 4) ? a.dtheta : b.dtheta};
+    const float f_max = fit[best], f_min = fit[worst];
+    const double ratio =
+        f_max > f_min ? static_cast<double>(f_max - fit[k]) / static_cast<double>(f_max - f_min)
+                      : 0.0;
+    child.dx += (ax * ratio + bx) * rng.normal();
+    child.dy += (ax * ratio + bx) * rng.normal();
+    child.dtheta += (at * ratio + bt) * rng.normal();
+    const float f = fitness(apply_correction(centre, child));
+    if (f > fit[worst]) {
+      pop[worst] = child;
+      fit[worst] = f;
+      ++result.replacements;
+      if (f > fit[best]) best = worst;
+      worst = worst_index();
+    }
+  }
+  result.best = pop[best];
+  result.pose = apply_correction(centre, result.best);
+  result.evaluations = config_.mu + iterations;
+  result.value.fitness = fit[best];
+  result.population = std::move(pop);
+  return result;
+}
+
+template <typename F>
+EsResult refine_pose_with(F&& fitness, const Pose2& start, double step_xy, double step_theta,
+                          double min_step_xy) {
+  EsResult r;
+  Pose2 best = start;
+  float f_best = fitness(best);
+  r.evaluations = 1;
+  while (step_xy >= min_step_xy) {
+    bool improved = false;
+    const Pose2 moves[6] = {{step_xy, 0, 0},  {-step_xy, 0, 0},   {0, step_xy, 0},
+                            {0, -step_xy, 0}, {0, 0, step_theta}, {0, 0, -step_theta}};
+    for (const Pose2& m : moves) {
+      const Pose2 p{best.x + m.x, best.y + m.y, normalize_angle(best.theta + m.theta)};
+      const float f = fitness(p);
+      ++r.evaluations;
+      if (f > f_best) {
+        f_best = f;
+        best = p;
+        improved = true;
+      }
+    }
+    if (!improved) {
+      step_xy *= 0.5;
+      step_theta *= 0.5;
+    }
+  }
+  r.pose = best;
+  r.value.fitness = f_best;
+  return r;
+}
 
 }  // namespace esfleet

@@ -20,21 +20,37 @@
 namespace esfleet {
 
 struct FitnessValue {
-  float fitness = 0.0f;   ///< p_occ * sum_map (Condition 1) or sum_map (Condition 2)
-  float sum_map = 0.0f;   ///< sum of map values at the end points
-  float p_occ = 0.0f;     ///< penalty factor
-  std::int32_t n_hit = 0;  ///< end points in cells with hit > 0
-  std::int32_t n_err = 0;  ///< end points in cells with err > 0
+  float fitness = 0.0f;      ///< p_occ * sum_map (Condition 1) or sum_map (Condition 2)
+  float sum_map = 0.0f;      ///< sum of map values at the end points
+  float p_occ = 0.0f;        ///< penalty factor
+  std::int32_t n_hit = 0;    ///< end points in cells with hit > 0
+  std::int32_t n_err = 0;    ///< end points in cells with err > 0
+  std::int32_t n_known = 0;  ///< end points in observed cells (hit + err > 0)
   std::int32_t n_points = 0;
+  /// Share of the end points in observed cells that fell on cells with hit > 0: how well the
+  /// scan agrees with the map where the map knows something (1 = perfectly); 0 if none known.
+  float agreement() const {
+    return n_known > 0 ? static_cast<float>(n_hit) / static_cast<float>(n_known) : 0.0f;
+  }
+};
+
+struct FitnessOptions {
+  bool use_penalty = true;  ///< Condition 1 (with p_occ); false = Condition 2
+  int level = 0;            ///< map pyramid level (0 = full resolution)
+  int stride = 1;           ///< use every stride-th end point only (coarse levels)
+  /// Ours: bilinear interpolation of map values between cell centres (sub-cell precision);
+  /// the penalty still counts the end point's own cell.
+  bool interpolate = false;
 };
 
 class FitnessEvaluator {
  public:
   /// Keeps a reference to nothing but the map's look-up view: the map must not gain tiles
-  /// while the evaluator is used. `level` selects the map pyramid level (0 = full resolution);
-  /// `stride` > 1 uses every stride-th end point only (for coarse levels).
-  FitnessEvaluator(const GridMap& map, const ScanPoints& points, bool use_penalty = true,
-                   int level = 0, int stride = 1, bool interpolate = false);
+  /// while the evaluator is used.
+  FitnessEvaluator(const GridMap& map, const ScanPoints& points, FitnessOptions options = {});
+  /// Paper fitness at full resolution, Condition 1 or 2.
+  FitnessEvaluator(const GridMap& map, const ScanPoints& points, bool use_penalty)
+      : FitnessEvaluator(map, points, FitnessOptions{.use_penalty = use_penalty}) {}
 
   FitnessValue evaluate(const Pose2& pose) const;
   /// Fitness only (the ES hot path).
@@ -44,8 +60,7 @@ class FitnessEvaluator {
  private:
   GridMap::Lookup lookup_;
   double inv_cell_;
-  bool use_penalty_;
-  bool interpolate_;
+  FitnessOptions options_;
   std::vector<float> px_, py_;  ///< end points in cell units
 };
 

@@ -39,9 +39,9 @@ struct TileKey {
 
 struct TileKeyHash {
   std::size_t operator()(const TileKey& k) const noexcept {
-    return std::hash<std::uint64_t>{}((static_cast<std::uint64_t>(static_cast<std::uint32_t>(k.tx))
-                                       << 32) |
-                                      static_cast<std::uint32_t>(k.ty));
+    return std::hash<std::uint64_t>{}(
+        (static_cast<std::uint64_t>(static_cast<std::uint32_t>(k.tx)) << 32) |
+        static_cast<std::uint32_t>(k.ty));
   }
 };
 
@@ -71,8 +71,8 @@ struct Tile {
   std::vector<float> score;  ///< derived from hit/err, see kUnknownScore
   /// coarse[k - 1]: level-k scores, (edge >> k)^2 cells, max over the 2^k x 2^k cells covered.
   std::vector<std::vector<float>> coarse;
-  bool touched = false;      ///< changed since the last commit_update()
-  bool dirty = false;        ///< in the dirty set (changed since the last take_dirty())
+  bool touched = false;  ///< changed since the last commit_update()
+  bool dirty = false;    ///< in the dirty set (changed since the last take_dirty())
 };
 
 class GridMap {
@@ -105,6 +105,10 @@ class GridMap {
   /// Return false (and change nothing) when the cell lies outside the allowed tile range.
   bool add_hit(CellIndex c);
   bool add_err(CellIndex c);
+  /// The inverse primitives (saturating at 0), used to take a scan back out of the map when
+  /// loop closure moves it.
+  bool remove_hit(CellIndex c);
+  bool remove_err(CellIndex c);
 
   /// Ends one map update: bumps each touched tile's version once and marks it dirty.
   /// Returns how many tiles changed.
@@ -141,21 +145,40 @@ class GridMap {
    public:
     /// Branch-free: a missing tile, and any cell outside the directory, reads from a shared
     /// all-unknown tile (the directory's last entry), so the hot loop has no unpredictable
-    /// branches.
+    /// branches. slot() and offset() split the address so callers can vectorise them.
+    /// The addressing constants, by value: a hot loop keeps them in registers.
+    struct Addressing {
+      std::int32_t tx0, ty0, width, height, outside, mask;
+      int shift, stride_shift;
+      std::int32_t slot(std::int32_t cx, std::int32_t cy) const {
+        const std::int32_t tx = (cx >> shift) - tx0;
+        const std::int32_t ty = (cy >> shift) - ty0;
+        const bool inside = (tx >= 0) & (tx < width) & (ty >= 0) & (ty < height);
+        return inside ? (ty << stride_shift) + tx : outside;
+      }
+      std::int32_t offset(std::int32_t cx, std::int32_t cy) const {
+        return ((cy & mask) << shift) | (cx & mask);
+      }
+    };
+    Addressing addressing() const {
+      return {tx0_, ty0_, width_, height_, outside_, mask_, shift_, stride_shift_};
+    }
+    std::int32_t slot(std::int32_t cx, std::int32_t cy) const { return addressing().slot(cx, cy); }
+    std::int32_t offset(std::int32_t cx, std::int32_t cy) const {
+      return addressing().offset(cx, cy);
+    }
+    const float* tile(std::int32_t slot) const { return dir_[slot]; }
     float score(std::int32_t cx, std::int32_t cy) const {
-      const auto tx = static_cast<std::uint32_t>((cx >> shift_) - tx0_);
-      const auto ty = static_cast<std::uint32_t>((cy >> shift_) - ty0_);
-      const bool inside = (tx < width_) & (ty < height_);
-      const std::size_t tile = inside ? static_cast<std::size_t>(ty) * width_ + tx : outside_;
-      return dir_[tile][((cy & mask_) << shift_) | (cx & mask_)];
+      return dir_[slot(cx, cy)][offset(cx, cy)];
     }
 
    private:
     friend class GridMap;
     const float* const* dir_ = nullptr;
     std::int32_t tx0_ = 0, ty0_ = 0;
-    std::uint32_t width_ = 0, height_ = 0;
-    std::size_t outside_ = 0;  ///< directory index of the all-unknown tile
+    std::int32_t width_ = 0, height_ = 0;
+    int stride_shift_ = 0;
+    std::int32_t outside_ = 0;  ///< directory index of the all-unknown tile
     int shift_ = 0;
     std::int32_t mask_ = 0;
   };
@@ -164,10 +187,12 @@ class GridMap {
 
  private:
   Tile* tile_for_write(CellIndex c);
+  bool modify(CellIndex c, bool hit_counter, bool increment);
   void grow_directory(TileKey k);
   static void refresh_score(Tile& t, std::size_t i);
   void rebuild_coarse(Tile& t) const;
   void set_directory_entry(std::size_t i, Tile* t);
+  std::size_t dir_slot(TileKey k) const;
 
   GridMapConfig config_;
   int shift_ = 6;
@@ -182,6 +207,7 @@ class GridMap {
   std::vector<Tile*> dir_tiles_;
   std::int32_t dir_tx0_ = 0, dir_ty0_ = 0;
   std::uint32_t dir_w_ = 0, dir_h_ = 0;
+  int dir_stride_shift_ = 0;
 };
 
 }  // namespace esfleet

@@ -21,9 +21,7 @@ struct LaserScan {
   /// logs must be run laser-only.)
   std::optional<Pose2> odometry;
 
-  float angle(std::size_t i) const {
-    return angle_min + static_cast<float>(i) * angle_increment;
-  }
+  float angle(std::size_t i) const { return angle_min + static_cast<float>(i) * angle_increment; }
   bool is_no_return(std::size_t i) const { return ranges[i] >= max_range; }
 };
 

@@ -32,8 +32,11 @@ struct MapUpdateStats {
 };
 
 /// Inserts `points` seen from `pose` into `map` and commits the update (tile versions bumped
-/// once, touched tiles marked dirty).
+/// once, touched tiles marked dirty). With `remove`, undoes exactly what the same call without
+/// it added (counters are additive), e.g. to move a scan after loop closure; with
+/// `commit` false the caller commits (to batch several scans into one map update).
 MapUpdateStats update_map(GridMap& map, const ScanPoints& points, const Pose2& pose,
-                          const MapUpdateConfig& config = {});
+                          const MapUpdateConfig& config = {}, bool remove = false,
+                          bool commit = true);
 
 }  // namespace esfleet

@@ -1,0 +1,78 @@
+#pragma once
+// Loop-closure detection for the leader's SLAM (ours, beyond the paper; the paper's SLAM never
+// revisits its past and names getting stuck as its weakness). When the robot comes back near
+// places it mapped long ago (far back along its own path), the current scan is matched against
+// a submap built from those old scans only, with a brute-force search over a window on a
+// coarse level followed by a fine polish. A match is accepted only if it agrees with the old
+// map (agreement, share of end points on known cells) and is unambiguous (no comparable score
+// far from the best, as in a corridor). The caller turns an accepted match into a pose-graph
+// edge.
+
+#include <cstddef>
+#include <optional>
+#include <vector>
+
+#include "esfleet/core/fitness.hpp"
+#include "esfleet/core/geometry.hpp"
+#include "esfleet/core/grid_map.hpp"
+#include "esfleet/core/map_update.hpp"
+#include "esfleet/core/scan_points.hpp"
+
+namespace esfleet {
+
+/// A scan written into the map, kept so loop closure can match against it and move it.
+struct KeyScan {
+  double stamp = 0.0;
+  ScanPoints points;
+  Pose2 mapped_pose;         ///< the pose its counters are in the map at
+  double path_length = 0.0;  ///< distance travelled from the start to here (estimate), metres
+};
+
+struct LoopClosureConfig {
+  bool enabled = false;
+  int every = 5;                   ///< attempt once per this many key scans
+  double min_travel = 10.0;        ///< old = at least this far back along the path, metres
+  double search_radius = 6.0;      ///< old scans within this of the current estimate trigger
+  double submap_radius = 10.0;     ///< old scans within this form the submap, metres
+  int max_submap_scans = 60;       ///< nearest ones first
+  double window_xy = 2.0;          ///< search window +-, metres
+  double window_theta_deg = 15.0;  ///< search window +-, degrees
+  double min_agreement = 0.75;     ///< FitnessValue::agreement of the match
+  double min_known = 0.5;          ///< share of end points on known submap cells
+  double max_ambiguity = 0.7;      ///< best score > 1 m away / best score must stay below this
+  /// Plausibility: the correction a match implies must stay below floor + rate * (distance
+  /// travelled since the anchor scan); odometry-free drift rarely exceeds a few percent.
+  double drift_floor_xy = 0.3;         ///< metres
+  double drift_rate_xy = 0.02;         ///< metres per metre travelled
+  double drift_floor_theta_deg = 2.0;  ///< degrees
+  double drift_rate_theta_deg = 0.05;  ///< degrees per metre travelled
+  /// A closure is kept only if, after optimising, the graph's total cost grew by at most this
+  /// (whitened squared error): a closure the graph must strain to satisfy is dropped.
+  double max_chi2 = 16.0;
+  double sigma_xy = 0.05;        ///< loop edge standard deviation, metres
+  double sigma_theta_deg = 1.0;  ///< loop edge standard deviation, degrees
+  double huber = 2.0;            ///< Huber threshold of loop edges (whitened)
+  void validate() const;
+};
+
+struct LoopMatch {
+  std::size_t anchor = 0;  ///< index of the old key scan the measurement is relative to
+  Pose2 pose;              ///< the current scan's pose in the (old) map frame
+  Pose2 relative;          ///< pose relative to the anchor's pose
+  FitnessValue value;      ///< fine fitness terms at `pose` in the submap
+  double ambiguity = 0.0;  ///< second-best distinct score / best score (coarse)
+  std::size_t submap_scans = 0;
+};
+
+/// Looks for a loop closure of the scan `points` whose current estimate is `estimate` and
+/// whose path length is `path_length`, against `keys` with their current poses `poses`
+/// (indices shared). Returns nothing when there are no old scans near or no acceptable match.
+std::optional<LoopMatch> find_loop_closure(const std::vector<KeyScan>& keys,
+                                           const std::vector<Pose2>& poses,
+                                           const ScanPoints& points, const Pose2& estimate,
+                                           double path_length, const LoopClosureConfig& config,
+                                           const GridMapConfig& map_config,
+                                           const MapUpdateConfig& update_config,
+                                           const FitnessOptions& fitness);
+
+}  // namespace esfleet

@@ -1,0 +1,137 @@
+#include "esfleet/core/loop_closure.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include "esfleet/core/es_search.hpp"
+
+namespace esfleet {
+
+void LoopClosureConfig::validate() const {
+  auto positive = [](double v, const char* name) {
+    if (!(v > 0.0) || !std::isfinite(v)) {
+      throw std::invalid_argument(std::string("loop.") + name + " must be > 0");
+    }
+  };
+  if (every < 1) throw std::invalid_argument("loop.every must be >= 1");
+  if (max_submap_scans < 1) throw std::invalid_argument("loop.max_submap_scans must be >= 1");
+  positive(min_travel, "min_travel");
+  positive(search_radius, "search_radius");
+  positive(submap_radius, "submap_radius");
+  positive(window_xy, "window_xy");
+  positive(window_theta_deg, "window_theta_deg");
+  positive(sigma_xy, "sigma_xy");
+  positive(sigma_theta_deg, "sigma_theta_deg");
+}
+
+std::optional<LoopMatch> find_loop_closure(const std::vector<KeyScan>& keys,
+                                           const std::vector<Pose2>& poses,
+                                           const ScanPoints& points, const Pose2& estimate,
+                                           double path_length, const LoopClosureConfig& config,
+                                           const GridMapConfig& map_config,
+                                           const MapUpdateConfig& update_config,
+                                           const FitnessOptions& fitness) {
+  // Old scans near the estimate, nearest first.
+  std::vector<std::pair<double, std::size_t>> near;
+  bool trigger = false;
+  for (std::size_t k = 0; k < keys.size(); ++k) {
+    if (path_length - keys[k].path_length < config.min_travel) continue;
+    const double d = std::hypot(poses[k].x - estimate.x, poses[k].y - estimate.y);
+    if (d <= config.search_radius) trigger = true;
+    if (d <= config.submap_radius) near.emplace_back(d, k);
+  }
+  if (!trigger || near.size() < 3) return std::nullopt;
+  std::sort(near.begin(), near.end());
+  if (near.size() > static_cast<std::size_t>(config.max_submap_scans)) {
+    near.resize(static_cast<std::size_t>(config.max_submap_scans));
+  }
+
+  constexpr int kCoarseLevel = 2;
+  GridMapConfig submap_config = map_config;
+  submap_config.pyramid_levels = std::max(map_config.pyramid_levels, kCoarseLevel);
+  GridMap submap(submap_config);
+  for (const auto& [d, k] : near) {
+    update_map(submap, keys[k].points, poses[k], update_config, false, false);
+  }
+  submap.commit_update();
+
+  // Brute force over the window on the coarse level: translation steps of half a coarse cell,
+  // rotation steps that move a 10 m beam end by about one coarse cell.
+  FitnessOptions coarse_options = fitness;
+  coarse_options.level = kCoarseLevel;
+  coarse_options.stride = 2;
+  coarse_options.interpolate = false;
+  const FitnessEvaluator coarse(submap, points, coarse_options);
+  const double coarse_cell = map_config.cell_size * (1 << kCoarseLevel);
+  const double step_xy = coarse_cell / 2.0;
+  const double step_theta = std::atan2(coarse_cell, 10.0);
+  const int nxy = static_cast<int>(std::ceil(config.window_xy / step_xy));
+  const int nth = static_cast<int>(std::ceil(deg_to_rad(config.window_theta_deg) / step_theta));
+  struct Candidate {
+    float score;
+    Pose2 pose;
+  };
+  std::vector<Candidate> scored;
+  scored.reserve(static_cast<std::size_t>((2 * nxy + 1) * (2 * nxy + 1) * (2 * nth + 1)));
+  for (int it = -nth; it <= nth; ++it) {
+    const double th = normalize_angle(estimate.theta + it * step_theta);
+    for (int iy = -nxy; iy <= nxy; ++iy) {
+      for (int ix = -nxy; ix <= nxy; ++ix) {
+        const Pose2 p{estimate.x + ix * step_xy, estimate.y + iy * step_xy, th};
+        scored.push_back({coarse.fitness(p), p});
+      }
+    }
+  }
+  const auto best_it =
+      std::max_element(scored.begin(), scored.end(),
+                       [](const Candidate& a, const Candidate& b) { return a.score < b.score; });
+  if (best_it == scored.end() || !(best_it->score > 0.0f)) return std::nullopt;
+  const Candidate best = *best_it;
+  float rival = 0.0f;
+  for (const Candidate& c : scored) {
+    if (std::hypot(c.pose.x - best.pose.x, c.pose.y - best.pose.y) > 1.0) {
+      rival = std::max(rival, c.score);
+    }
+  }
+  LoopMatch match;
+  match.ambiguity = static_cast<double>(rival) / static_cast<double>(best.score);
+  match.submap_scans = near.size();
+  if (match.ambiguity > config.max_ambiguity) return std::nullopt;
+
+  FitnessOptions fine_options = fitness;
+  fine_options.level = 0;
+  fine_options.stride = 1;
+  const FitnessEvaluator fine(submap, points, fine_options);
+  const EsResult polished = refine_pose(fine, best.pose, step_xy, step_theta, 0.001);
+  match.pose = polished.pose;
+  match.value = polished.value;
+  const double known = match.value.n_points > 0 ? static_cast<double>(match.value.n_known) /
+                                                      static_cast<double>(match.value.n_points)
+                                                : 0.0;
+  if (match.value.agreement() < config.min_agreement || known < config.min_known) {
+    return std::nullopt;
+  }
+  // Anchor: the submap scan nearest to the matched pose.
+  double best_d = 1e300;
+  for (const auto& [d, k] : near) {
+    const double dk = std::hypot(poses[k].x - match.pose.x, poses[k].y - match.pose.y);
+    if (dk < best_d) {
+      best_d = dk;
+      match.anchor = k;
+    }
+  }
+  match.relative = match.pose.relative_to(poses[match.anchor]);
+  const double travel = path_length - keys[match.anchor].path_length;
+  const Pose2 correction = match.pose.relative_to(estimate);
+  if (std::hypot(correction.x, correction.y) >
+          config.drift_floor_xy + config.drift_rate_xy * travel ||
+      std::abs(rad_to_deg(correction.theta)) >
+          config.drift_floor_theta_deg + config.drift_rate_theta_deg * travel) {
+    return std::nullopt;
+  }
+  return match;
+}
+
+}  // namespace esfleet
