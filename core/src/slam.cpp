@@ -3,12 +3,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 #include <stdexcept>
-
 #include <string>
-#include "esfleet/core/scan_points.hpp"
 
 namespace esfleet {
 
@@ -16,24 +12,21 @@ void SlamConfig::validate() const {
   map.validate();
   update.validate();
   es.validate();
-  if (!(min_range >= 0.0f)) throw std::invalid_argument("slam.min_range must be >= 0");
-  if (!(max_range >= 0.0f)) throw std::invalid_argument("slam.max_range must be >= 0 (0 = all)");
-  if (!(init_sigma_xy >= 0.0) || !std::isfinite(init_sigma_xy)) {
-    throw std::invalid_argument("slam.init_sigma_xy must be >= 0");
-  }
-  if (!(init_sigma_theta_deg >= 0.0) || !std::isfinite(init_sigma_theta_deg)) {
-    throw std::invalid_argument("slam.init_sigma_theta_deg must be >= 0");
-  }
-  if (coarse_level < 0 || coarse_level > map.pyramid_levels) {
-    throw std::invalid_argument("slam.coarse_level must be in [0, map.pyramid_levels = " +
-                                std::to_string(map.pyramid_levels) + "]");
-  }
+  auto check = [](bool ok, const char* what) {
+    if (!ok) throw std::invalid_argument(what);
+  };
+  check(min_range >= 0.0f, "slam.min_range must be >= 0");
+  check(max_range >= 0.0f, "slam.max_range must be >= 0 (0 = all)");
+  check(init_sigma_xy >= 0.0 && std::isfinite(init_sigma_xy), "slam.init_sigma_xy must be >= 0");
+  check(init_sigma_theta_deg >= 0.0 && std::isfinite(init_sigma_theta_deg),
+        "slam.init_sigma_theta must be >= 0");
+  check(prior_sigma_xy >= 0.0 && prior_sigma_theta_deg >= 0.0,
+        "slam.prior_sigma_xy and prior_sigma_theta must be >= 0 (0 = no prior)");
+  check(insert_min_travel >= 0.0 && insert_min_turn_deg >= 0.0,
+        "slam.insert_min_travel and insert_min_turn must be >= 0");
+  check(key_sigma_xy > 0.0 && key_sigma_theta_deg > 0.0,
+        "slam.key_sigma_xy and key_sigma_theta must be > 0");
   if (loop.enabled) loop.validate();
-  if (!(key_sigma_xy > 0.0) || !(key_sigma_theta_deg > 0.0)) {
-    throw std::invalid_argument("slam.key_sigma_xy and key_sigma_theta_deg must be > 0");
-  }
-  if (coarse_iterations < 0) throw std::invalid_argument("slam.coarse_iterations must be >= 0");
-  if (coarse_stride < 1) throw std::invalid_argument("slam.coarse_stride must be >= 1");
 }
 
 SlamConfig SlamConfig::paper() {
@@ -41,9 +34,16 @@ SlamConfig SlamConfig::paper() {
   c.prediction = MotionPrediction::kPreviousPose;
   c.use_odometry = false;
   c.use_penalty = true;
+  c.init_sigma_xy = 0.05;
+  c.init_sigma_theta_deg = 2.0;
   c.motion_hypotheses = false;
-  c.coarse_level = 0;
-  c.map.pyramid_levels = 0;
+  c.turn_hypotheses = false;
+  c.interpolation = Interpolation::kNone;
+  c.refine = false;
+  c.prior_sigma_xy = 0.0;
+  c.prior_sigma_theta_deg = 0.0;
+  c.insert_min_travel = 0.0;
+  c.insert_min_turn_deg = 0.0;
   c.loop.enabled = false;
   return c;
 }
@@ -88,21 +88,31 @@ Pose2 Slam::predict(const LaserScan& scan, std::vector<Pose2>* alternatives) con
     if (!odom) alternatives->push_back(prev);
     if (velocity) alternatives->push_back(*velocity);
     if (odom) alternatives->push_back(*odom);
+    if (!odom && velocity && config_.turn_hypotheses) {
+      // Laser only, turning: the robot may speed up, slow down or reverse its turn (S-curves
+      // reverse at 8 deg/scan on fr079, so constant velocity is then 16 deg off). Add the
+      // constant-velocity pose turned by +-1 and +-2 times the last turn.
+      const double turn = normalize_angle(velocity->theta - prev.theta);
+      if (std::abs(turn) > deg_to_rad(1.0)) {
+        for (const double f : {-2.0, -1.0, 1.0, 2.0}) {
+          alternatives->push_back(
+              {velocity->x, velocity->y, normalize_angle(velocity->theta + f * turn)});
+        }
+      }
+    }
   }
   return centre;
 }
 
-FitnessOptions Slam::fitness_options(int level) const {
+FitnessOptions Slam::fitness_options(bool interpolate) const {
   FitnessOptions o;
   o.use_penalty = config_.use_penalty;
-  o.level = level;
-  o.stride = level > 0 ? config_.coarse_stride : 1;
-  o.interpolate = level == 0 && config_.interpolate;
+  o.interpolate = interpolate;
   return o;
 }
 
 float Slam::prior(const Pose2& p, const std::vector<Pose2>& hypotheses) const {
-  // A flat-topped, multi-modal motion prior: the best of Gaussians around each hypothesis.
+  // A multi-modal motion prior: the best of the Gaussians around each hypothesis.
   const double sxy = config_.prior_sigma_xy;
   const double sth = deg_to_rad(config_.prior_sigma_theta_deg);
   double best = 0.0;
@@ -115,61 +125,33 @@ float Slam::prior(const Pose2& p, const std::vector<Pose2>& hypotheses) const {
 }
 
 EsResult Slam::search(const ScanPoints& points, const Pose2& centre,
-                      const std::vector<Pose2>& alternatives, double sigma_scale) {
+                      const std::vector<Pose2>& hypotheses) {
   std::vector<Correction> extra;
-  if (config_.motion_hypotheses) {
-    for (const Pose2& p : alternatives) extra.push_back(correction_between(centre, p));
+  for (std::size_t h = 1; h < hypotheses.size(); ++h) {
+    extra.push_back(correction_between(centre, hypotheses[h]));
   }
-  std::vector<Pose2> hypotheses{centre};
-  if (config_.motion_hypotheses && !config_.prior_centre_only) {
-    hypotheses.insert(hypotheses.end(), alternatives.begin(), alternatives.end());
-  }
-  const bool use_prior = config_.prior_sigma_xy > 0.0 && config_.prior_sigma_theta_deg > 0.0;
-  auto run = [&](const FitnessEvaluator& eval, const std::vector<Correction>& initial,
-                 int iterations) {
-    if (!use_prior) return es_.search(eval, centre, initial, rng_, iterations);
-    EsResult r =
-        es_.search_with([&](const Pose2& p) { return eval.fitness(p) * prior(p, hypotheses); },
-                        centre, initial, rng_, iterations);
-    r.value = eval.evaluate(r.pose);
-    return r;
-  };
-  const FitnessEvaluator fine(map_, points, fitness_options(0));
-  if (config_.coarse_level <= 0) {
-    return run(fine,
-               make_initial_population(config_.es.mu, sigma_scale * config_.init_sigma_xy,
-                                       sigma_scale * deg_to_rad(config_.init_sigma_theta_deg), rng_,
-                                       extra),
-               config_.es.iterations);
-  }
-  const FitnessEvaluator coarse(map_, points, fitness_options(config_.coarse_level));
-  const int coarse_iterations = std::min(config_.coarse_iterations, config_.es.iterations);
-  const EsResult rc =
-      run(coarse,
-          make_initial_population(config_.es.mu, sigma_scale * config_.coarse_sigma_xy,
-                                  sigma_scale * deg_to_rad(config_.coarse_sigma_theta_deg), rng_,
-                                  extra),
-          coarse_iterations);
-  EsResult r = run(fine, rc.population, config_.es.iterations - coarse_iterations);
+  const auto initial = make_initial_population(
+      config_.es.mu, config_.init_sigma_xy, deg_to_rad(config_.init_sigma_theta_deg), rng_, extra);
+  const FitnessEvaluator eval(map_, points,
+                              fitness_options(config_.interpolation == Interpolation::kAll));
+  if (!use_prior()) return es_.search(eval, centre, initial, rng_);
+  EsResult r =
+      es_.search_with([&](const Pose2& p) { return eval.fitness(p) * prior(p, hypotheses); },
+                      centre, initial, rng_);
+  r.value = eval.evaluate(r.pose);
   return r;
 }
 
 EsResult Slam::polish(const ScanPoints& points, const Pose2& start,
                       const std::vector<Pose2>& hypotheses) const {
-  const FitnessEvaluator fine(map_, points, fitness_options(0));
-  const bool use_prior = config_.prior_sigma_xy > 0.0 && config_.prior_sigma_theta_deg > 0.0;
+  const FitnessEvaluator eval(map_, points,
+                              fitness_options(config_.interpolation != Interpolation::kNone));
+  const bool with_prior = use_prior();
   EsResult r = refine_pose_with(
-      [&](const Pose2& p) { return fine.fitness(p) * (use_prior ? prior(p, hypotheses) : 1.0f); },
+      [&](const Pose2& p) { return eval.fitness(p) * (with_prior ? prior(p, hypotheses) : 1.0f); },
       start, 0.02, deg_to_rad(0.5), 0.001);
-  r.value = fine.evaluate(r.pose);
+  r.value = eval.evaluate(r.pose);
   return r;
-}
-
-float Slam::median_agreement() const {
-  if (recent_agreement_.empty()) return 0.0f;
-  std::vector<float> v = recent_agreement_;
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
-  return v[v.size() / 2];
 }
 
 namespace {
@@ -186,42 +168,22 @@ SlamStep Slam::process(const LaserScan& scan) {
   if (!trajectory_.empty()) {
     std::vector<Pose2> alternatives;
     step.predicted = predict(scan, &alternatives);
+    // Hypotheses: the centre first, then the other motion hypotheses when switched on.
+    std::vector<Pose2> hypotheses{step.predicted};
+    if (config_.motion_hypotheses) {
+      hypotheses.insert(hypotheses.end(), alternatives.begin(), alternatives.end());
+    }
     const auto t_search = Clock::now();
-    EsResult r = search(points, step.predicted, alternatives);
-    const float median = median_agreement();
-    constexpr std::size_t kWarmup = 10;  // inserted scans before the median is trusted
-    const bool trusted = recent_agreement_.size() >= kWarmup;
-    if (trusted && config_.retry_ratio > 0.0 &&
-        r.value.agreement() < config_.retry_ratio * median) {
-      // A weak match: search again from a wide spread around every hypothesis.
-      step.retried = true;
-      const double scale_xy =
-          config_.retry_sigma_xy / std::max(1e-9, config_.coarse_level > 0 ? config_.coarse_sigma_xy
-                                                                           : config_.init_sigma_xy);
-      EsResult wide = search(points, step.predicted, alternatives, scale_xy);
-      if (wide.value.fitness > r.value.fitness) r = std::move(wide);
-    }
-    if (config_.refine) {
-      std::vector<Pose2> hypotheses{step.predicted};
-      if (config_.motion_hypotheses && !config_.prior_centre_only) {
-        hypotheses.insert(hypotheses.end(), alternatives.begin(), alternatives.end());
-      }
-      r = polish(points, r.pose, hypotheses);
-    }
+    EsResult r = search(points, step.predicted, hypotheses);
+    if (config_.refine) r = polish(points, r.pose, hypotheses);
     step.pose = r.pose;
     step.fitness = r.value;
     step.search_ms = ms_since(t_search);
-    if (trusted && config_.gate_ratio > 0.0 && r.value.agreement() < config_.gate_ratio * median) {
-      insert = false;
-    }
-    if (insert && last_inserted_ &&
-        (config_.insert_min_travel > 0.0 || config_.insert_min_turn_deg > 0.0)) {
+    if (last_inserted_ && (config_.insert_min_travel > 0.0 || config_.insert_min_turn_deg > 0.0)) {
       const Pose2 d = step.pose.relative_to(*last_inserted_);
       insert = std::hypot(d.x, d.y) >= config_.insert_min_travel ||
                std::abs(d.theta) >= deg_to_rad(config_.insert_min_turn_deg);
     }
-  }
-  if (!trajectory_.empty()) {
     const Pose2& prev = trajectory_.back().pose;
     path_length_ += std::hypot(step.pose.x - prev.x, step.pose.y - prev.y);
   }
@@ -231,15 +193,6 @@ SlamStep Slam::process(const LaserScan& scan) {
     step.update = update_map(map_, points, step.pose, config_.update);
     step.update_ms = ms_since(t_update);
     last_inserted_ = step.pose;
-    if (!trajectory_.empty()) {
-      constexpr std::size_t kWindow = 50;
-      if (recent_agreement_.size() < kWindow) {
-        recent_agreement_.push_back(step.fitness.agreement());
-      } else {
-        recent_agreement_[agreement_next_] = step.fitness.agreement();
-        agreement_next_ = (agreement_next_ + 1) % kWindow;
-      }
-    }
   }
   if (scan.odometry) last_odometry_ = scan.odometry;
   trajectory_.push_back({scan.stamp, step.pose});
@@ -276,19 +229,10 @@ bool Slam::add_key_scan(const ScanPoints& points, const Pose2& pose, double stam
     graph_.add_edge(e);
   }
   if (k == 0 || k % static_cast<std::size_t>(config_.loop.every) != 0) return false;
-  const auto match =
-      find_loop_closure(keys_, graph_.nodes(), points, pose, path_length_, config_.loop,
-                        config_.map, config_.update, fitness_options(0));
+  const auto match = find_loop_closure(
+      keys_, graph_.nodes(), points, pose, path_length_, config_.loop, config_.map, config_.update,
+      fitness_options(config_.interpolation != Interpolation::kNone));
   if (!match) return false;
-  if (std::getenv("ESFLEET_DEBUG_LOOPS")) {
-    const Pose2 d = match->pose.relative_to(pose);
-    std::fprintf(stderr,
-                 "loop key %zu anchor %zu: corr (%.3f %.3f %.2f deg) agree %.3f known %d/%d amb "
-                 "%.3f sub %zu\n",
-                 k, match->anchor, d.x, d.y, rad_to_deg(d.theta), match->value.agreement(),
-                 match->value.n_known, match->value.n_points, match->ambiguity,
-                 match->submap_scans);
-  }
   PoseGraphEdge e;
   e.from = match->anchor;
   e.to = k;
@@ -310,6 +254,8 @@ bool Slam::add_key_scan(const ScanPoints& points, const Pose2& pose, double stam
     return false;
   }
   ++loop_closures_;
+  last_loop_ = LoopEvent{k, match->anchor, match->pose.relative_to(pose), match->value.agreement(),
+                         match->ambiguity};
   apply_graph();
   return true;
 }

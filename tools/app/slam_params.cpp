@@ -40,6 +40,51 @@ void add_slam_params(ParamTable& t, SlamConfig* s, CarmenReaderOptions* r) {
   t.add_double("init_sigma_theta", &s->init_sigma_theta_deg,
                "initial population spread around the prediction, degrees");
   t.add_u64("seed", &s->seed, "random seed of the ES (same input + seed = same output)");
+  // Beyond the paper.
+  t.add_switch("motion_hypotheses", &s->motion_hypotheses,
+               "put every motion hypothesis (previous pose, constant velocity, odometry) into "
+               "the initial population");
+  t.add_switch("turn_hypotheses", &s->turn_hypotheses,
+               "laser only: also hypotheses turning +-1 and +-2 times the last turn");
+  t.add_choice(
+      "interpolation", {"none", "polish", "all"},
+      [s](const std::string& v) {
+        s->interpolation = v == "none"     ? Interpolation::kNone
+                           : v == "polish" ? Interpolation::kPolish
+                                           : Interpolation::kAll;
+      },
+      [s] {
+        return std::string(s->interpolation == Interpolation::kNone     ? "none"
+                           : s->interpolation == Interpolation::kPolish ? "polish"
+                                                                        : "all");
+      },
+      "bilinear sub-cell map values in the fitness: nowhere, in the final polish, or also in "
+      "the ES");
+  t.add_switch("refine", &s->refine, "polish the ES result with a deterministic pattern search");
+  t.add_double("prior_sigma_xy", &s->prior_sigma_xy, "motion prior width, metres (0 = no prior)");
+  t.add_double("prior_sigma_theta", &s->prior_sigma_theta_deg,
+               "motion prior width, degrees (0 = no prior)");
+  t.add_double("insert_min_travel", &s->insert_min_travel,
+               "insert a scan once the robot moved this far since the last one, metres (0 and "
+               "insert_min_turn 0 = every scan)");
+  t.add_double("insert_min_turn", &s->insert_min_turn_deg, "... or turned this much, degrees");
+  t.add_switch("loop_closure", &s->loop.enabled, "loop closure over a pose graph");
+  t.add_int("loop_every", &s->loop.every, "attempt a loop closure every N inserted scans");
+  t.add_double("loop_min_travel", &s->loop.min_travel,
+               "a loop closes against scans at least this far back along the path, metres");
+  t.add_double("loop_search_radius", &s->loop.search_radius,
+               "old scans this close to the estimate trigger an attempt, metres");
+  t.add_double("loop_window_xy", &s->loop.window_xy, "loop search window +-, metres");
+  t.add_double("loop_window_theta", &s->loop.window_theta_deg, "loop search window +-, degrees");
+  t.add_double("loop_min_agreement", &s->loop.min_agreement,
+               "share of end points on occupied cells a loop match needs");
+  t.add_double("loop_max_ambiguity", &s->loop.max_ambiguity,
+               "second-best distinct score / best score a loop match may have");
+  t.add_double("loop_max_chi2", &s->loop.max_chi2,
+               "graph cost increase above which a loop closure is dropped");
+  t.add_double("key_sigma_xy", &s->key_sigma_xy,
+               "pose-graph edge between consecutive inserted scans, metres");
+  t.add_double("key_sigma_theta", &s->key_sigma_theta_deg, "... degrees");
   // Reader.
   t.add_choice(
       "even_beams", {"start", "centered"},

@@ -29,7 +29,7 @@ struct KeyScan {
 };
 
 struct LoopClosureConfig {
-  bool enabled = false;
+  bool enabled = true;
   int every = 5;                   ///< attempt once per this many key scans
   double min_travel = 10.0;        ///< old = at least this far back along the path, metres
   double search_radius = 6.0;      ///< old scans within this of the current estimate trigger

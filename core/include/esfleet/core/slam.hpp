@@ -3,10 +3,16 @@
 //   1. predict the pose, 2. search it with the (mu+1)-ES against the map built from all earlier
 //   scans, 3. update the map with this scan at the pose found.
 // The very first scan is inserted at the origin.
+//
+// SlamConfig::paper() is the paper's exact configuration. The defaults add what the paper's
+// SLAM needed to stay on track on the benchmark logs (docs/slam.md has the measurements):
+// constant-velocity prediction, every motion hypothesis in the initial population, a wider
+// initial spread, bilinear sub-cell fitness, a deterministic polish of the ES result, a motion
+// prior that breaks ties in corridors, inserting scans only after the robot moved, and loop
+// closure over a pose graph of the inserted scans.
 
 #include <cstdint>
 #include <optional>
-#include <string>
 #include <vector>
 
 #include "esfleet/core/es_search.hpp"
@@ -27,64 +33,57 @@ enum class MotionPrediction {
   kConstantVelocity,  ///< previous estimate plus the last inter-scan motion, scaled by time
 };
 
+/// Where the fitness interpolates map values bilinearly between cell centres (ours).
+enum class Interpolation {
+  kNone,    ///< nearest cell everywhere (the paper)
+  kPolish,  ///< the ES uses nearest cells, the final polish interpolates
+  kAll,     ///< ES and polish interpolate (4 look-ups per beam)
+};
+
 struct SlamConfig {
   GridMapConfig map;
   MapUpdateConfig update;
   EsConfig es;
   bool use_penalty = true;    ///< fitness with p_occ (paper Condition 1); false = Condition 2
-  bool use_odometry = false;  ///< add the odometry increment to the prediction (paper: off)
-  MotionPrediction prediction = MotionPrediction::kPreviousPose;  ///< used without odometry
+  bool use_odometry = false;  ///< predict with the odometry increment (paper: off)
+  MotionPrediction prediction = MotionPrediction::kConstantVelocity;  ///< without odometry
   float min_range = 0.0f;  ///< beams shorter than this are ignored (m)
   float max_range = 0.0f;  ///< beams at or beyond this are ignored (m); 0 = sensor maximum
-  /// Initial population: zero correction plus mu-1 draws N(0, sigma) around the prediction.
-  double init_sigma_xy = 0.05;        ///< metres
-  double init_sigma_theta_deg = 2.0;  ///< degrees
+  /// Initial population: zero correction (and the motion hypotheses) plus draws N(0, sigma)
+  /// around the prediction.
+  double init_sigma_xy = 0.1;         ///< metres
+  double init_sigma_theta_deg = 8.0;  ///< degrees
   std::uint64_t seed = 1;             ///< seeds the ES; same input + seed = same trajectory
 
   // --- Beyond the paper (ours). SlamConfig::paper() switches all of these off. ---
-  /// Seed the initial population with every motion hypothesis available (previous pose,
-  /// constant velocity, odometry), not only the one the search is centred on.
-  bool motion_hypotheses = false;
-  /// Coarse-to-fine: run the first `coarse_iterations` ES iterations on map pyramid level
-  /// `coarse_level` (cells 2^level larger, max-pooled), then the rest at full resolution from the
-  /// coarse population. 0 = single-level search as in the paper. Needs map.pyramid_levels >= it.
-  int coarse_level = 0;
-  int coarse_iterations = 500;
-  int coarse_stride = 1;                ///< use every n-th beam at the coarse level
-  double coarse_sigma_xy = 0.2;         ///< initial spread at the coarse level, metres
-  double coarse_sigma_theta_deg = 8.0;  ///< initial spread at the coarse level, degrees
-  /// Full-resolution fitness with bilinear interpolation of map values between cell centres
-  /// (sub-cell precision; the penalty still counts the end point's own cell).
-  bool interpolate = false;
-  /// Motion prior (0 = off): the ES maximises fitness * max_h exp(-m_h^2 / 2), m_h the
-  /// distance to motion hypothesis h in units of these sigmas. A tie-breaker for directions the
-  /// map does not constrain (corridors); wide enough not to fight a clear match.
-  double prior_sigma_xy = 0.0;         ///< metres
-  double prior_sigma_theta_deg = 0.0;  ///< degrees
-  bool prior_centre_only = false;      ///< prior around the centre prediction only
-  /// After the ES, polish the best pose with a deterministic pattern search (refine_pose).
-  bool refine = false;
+  /// Put every motion hypothesis (previous pose, constant velocity, odometry) into the initial
+  /// population, not only the one the search is centred on. With odometry the previous pose
+  /// is left out (in a corridor it would let the search stop the robot).
+  bool motion_hypotheses = true;
+  /// Laser only: also the constant-velocity pose turned by +-1 and +-2 times the last turn
+  /// (turns that speed up, stop or reverse).
+  bool turn_hypotheses = true;
+  Interpolation interpolation = Interpolation::kAll;
+  /// Polish the ES result with a deterministic pattern search (refine_pose_with).
+  bool refine = true;
+  /// Motion prior (0 = off): the search maximises fitness * max_h exp(-m_h^2 / 2), m_h the
+  /// distance to motion hypothesis h in units of these sigmas: a tie-breaker for directions
+  /// the map does not constrain (corridors), wide enough not to fight a clear match.
+  double prior_sigma_xy = 0.3;          ///< metres
+  double prior_sigma_theta_deg = 10.0;  ///< degrees
   /// Write a scan into the map only once the pose moved this far from the last inserted one
   /// (either threshold; 0 and 0 = every scan, as in the paper).
-  double insert_min_travel = 0.0;    ///< metres
-  double insert_min_turn_deg = 0.0;  ///< degrees
-  /// Agreement (FitnessValue::agreement) is tracked as a running median over recent inserted
-  /// scans. A match whose agreement falls below retry_ratio * median is searched again with a
-  /// wide initial spread (the better result wins); below gate_ratio * median it is not written
-  /// into the map. 0 = off.
-  double retry_ratio = 0.0;
-  double retry_sigma_xy = 0.3;          ///< metres
-  double retry_sigma_theta_deg = 20.0;  ///< degrees
-  double gate_ratio = 0.0;
-  /// Loop closure with a pose graph over the inserted scans (off in the paper's configuration).
+  double insert_min_travel = 0.1;    ///< metres
+  double insert_min_turn_deg = 5.0;  ///< degrees
+  /// Loop closure over a pose graph of the inserted scans.
   LoopClosureConfig loop;
-  double key_sigma_xy = 0.02;        ///< pose-graph edge between consecutive inserted scans, m
+  double key_sigma_xy = 0.02;        ///< graph edge between consecutive inserted scans, metres
   double key_sigma_theta_deg = 0.3;  ///< ... degrees
 
   /// Throws std::invalid_argument naming the field.
   void validate() const;
-  /// The paper's configuration: previous-pose prediction, laser only, Condition 1, none of our
-  /// extensions.
+  /// The paper's configuration: previous-pose prediction, laser only, Condition 1, initial
+  /// spread 5 cm / 2 degrees, every scan inserted, none of our extensions.
   static SlamConfig paper();
 };
 
@@ -94,12 +93,20 @@ struct SlamStep {
   Pose2 predicted;           ///< the prediction the search started from
   FitnessValue fitness;      ///< fitness terms at `pose` (before this scan's map update)
   bool inserted = false;     ///< whether the scan was written into the map
-  bool retried = false;      ///< whether the wide retry search ran
   bool loop_closed = false;  ///< a loop closure was accepted and the graph re-optimised
   MapUpdateStats update;
-  double search_ms = 0.0;  ///< wall time of the pose search (ES, retries, polish)
+  double search_ms = 0.0;  ///< wall time of the pose search (ES and polish)
   double update_ms = 0.0;  ///< wall time of the map update
   double loop_ms = 0.0;    ///< wall time of key-scan bookkeeping and loop closure
+};
+
+/// The last accepted loop closure, for logs.
+struct LoopEvent {
+  std::size_t key = 0;     ///< key scan that closed the loop
+  std::size_t anchor = 0;  ///< old key scan it was matched to
+  Pose2 correction;        ///< matched pose relative to the estimate before closing
+  float agreement = 0.0f;
+  double ambiguity = 0.0;
 };
 
 class Slam {
@@ -112,21 +119,33 @@ class Slam {
   const SlamConfig& config() const { return config_; }
   const GridMap& map() const { return map_; }
   GridMap& map() { return map_; }
+  /// One pose per processed scan; with loop closure, past poses move when the graph is
+  /// re-optimised.
   const std::vector<TimedPose>& trajectory() const { return trajectory_; }
   std::size_t scans_processed() const { return trajectory_.size(); }
   std::size_t loop_closures() const { return loop_closures_; }
   std::size_t loop_closures_rejected() const { return loop_rejected_; }
   std::size_t key_scans() const { return keys_.size(); }
+  const std::optional<LoopEvent>& last_loop() const { return last_loop_; }
 
  private:
-  /// The pose the search is centred on; `alternatives` receives every motion hypothesis.
+  /// The pose the search is centred on; `alternatives` receives the motion hypotheses.
   Pose2 predict(const LaserScan& scan, std::vector<Pose2>* alternatives) const;
-  FitnessOptions fitness_options(int level) const;
+  FitnessOptions fitness_options(bool interpolate) const;
+  bool use_prior() const {
+    return config_.prior_sigma_xy > 0.0 && config_.prior_sigma_theta_deg > 0.0;
+  }
   float prior(const Pose2& p, const std::vector<Pose2>& hypotheses) const;
+  EsResult search(const ScanPoints& points, const Pose2& centre,
+                  const std::vector<Pose2>& hypotheses);
   EsResult polish(const ScanPoints& points, const Pose2& start,
                   const std::vector<Pose2>& hypotheses) const;
-  EsResult search(const ScanPoints& points, const Pose2& centre,
-                  const std::vector<Pose2>& alternatives, double sigma_scale = 1.0);
+  /// Adds the scan just inserted as a key scan (graph node + edge to the previous one) and
+  /// tries a loop closure; returns true when the graph was re-optimised.
+  bool add_key_scan(const ScanPoints& points, const Pose2& pose, double stamp);
+  /// Moves every key scan whose optimised pose differs from where it is in the map, and
+  /// re-derives the trajectory from the optimised key poses.
+  void apply_graph();
 
   SlamConfig config_;
   GridMap map_;
@@ -135,23 +154,15 @@ class Slam {
   std::vector<TimedPose> trajectory_;
   std::optional<Pose2> last_odometry_;
   std::optional<Pose2> last_inserted_;
-  std::vector<float> recent_agreement_;  ///< ring of agreements of recent inserted scans
-  std::size_t agreement_next_ = 0;
-  float median_agreement() const;
-  /// Adds the scan just inserted as a key scan (graph node + edge to the previous one) and
-  /// tries a loop closure; returns true when the graph was re-optimised.
-  bool add_key_scan(const ScanPoints& points, const Pose2& pose, double stamp);
-  /// Moves every key scan whose optimised pose differs from where it is in the map, and
-  /// re-derives the trajectory from the optimised key poses.
-  void apply_graph();
+  double path_length_ = 0.0;
 
   std::vector<KeyScan> keys_;
   PoseGraph graph_;
   /// For each trajectory entry: the key scan it is anchored to and its pose relative to it.
   std::vector<std::pair<std::size_t, Pose2>> anchors_;
-  double path_length_ = 0.0;
   std::size_t loop_closures_ = 0;
   std::size_t loop_rejected_ = 0;
+  std::optional<LoopEvent> last_loop_;
 };
 
 }  // namespace esfleet
