@@ -61,6 +61,12 @@ int main(int argc, char** argv) {
   app.add_option("--tolerance", options.tolerance,
                  "max seconds between a relation stamp and its nearest trajectory pose")
       ->capture_default_str();
+  app.add_option("--outlier-trans", options.outlier_trans,
+                 "relations with a larger translation error count as outliers, metres")
+      ->capture_default_str();
+  app.add_option("--outlier-rot", options.outlier_rot_deg,
+                 "relations with a larger rotation error count as outliers, degrees")
+      ->capture_default_str();
   app.add_flag("--json", json, "also print the result as one JSON object on the last line");
 
   try {
@@ -97,6 +103,11 @@ int main(int argc, char** argv) {
       std::cout << "translation: n/a\nrotation: n/a\n";
     }
     std::cout << "matched: " << r.matched << " / " << r.total << " relation lines\n";
+    if (r.matched > 0) {
+      std::cout << "worst: "
+                << format("%.3f m, outliers (> %g m", r.trans_max, options.outlier_trans) << " or "
+                << options.outlier_rot_deg << " deg): " << r.outliers << '\n';
+    }
     if (json) {
       // With nothing matched the statistics are undefined: null, not a misleading 0.
       const auto stat = [&](double v) { return r.matched > 0 ? nlohmann::json(v) : nullptr; };
@@ -104,6 +115,8 @@ int main(int argc, char** argv) {
                                 {"trans_std", stat(r.trans_std)},
                                 {"rot_mean_deg", stat(r.rot_mean_deg)},
                                 {"rot_std_deg", stat(r.rot_std_deg)},
+                                {"trans_max", stat(r.trans_max)},
+                                {"outliers", r.outliers},
                                 {"matched", r.matched},
                                 {"total", r.total}};
       std::cout << j.dump() << '\n';

@@ -159,6 +159,11 @@ RelationsResult evaluate_relations(const std::vector<TimedPose>& trajectory,
   result.total = relations.size();
   result.matched = trans_errors.size();
   std::tie(result.trans_mean, result.trans_std) = mean_and_std(trans_errors);
+  const double outlier_rot = deg_to_rad(options.outlier_rot_deg);
+  for (std::size_t i = 0; i < trans_errors.size(); ++i) {
+    result.trans_max = std::max(result.trans_max, trans_errors[i]);
+    if (trans_errors[i] > options.outlier_trans || rot_errors[i] > outlier_rot) ++result.outliers;
+  }
   const auto [rot_mean, rot_std] = mean_and_std(rot_errors);
   result.rot_mean_deg = rad_to_deg(rot_mean);
   result.rot_std_deg = rad_to_deg(rot_std);

@@ -107,6 +107,22 @@ TEST(EvaluateRelations, StdIsThePopulationStd) {
   EXPECT_NEAR(r.trans_std, 0.1, kEps);
 }
 
+TEST(EvaluateRelations, WorstErrorAndOutliersAgainstTheThresholds) {
+  // Errors 0.1, 0.6 and 0.2 m; one relation also off by 20 degrees.
+  const auto estimate = along_x({0.0, 1.1, 2.7, 3.9});
+  const std::vector<Relation> relations = {
+      {0, 1, {1, 0, 0}}, {1, 2, {1, 0, 0}}, {2, 3, {1, 0, deg_to_rad(20.0)}}};
+  RelationsOptions options;
+  options.outlier_trans = 0.5;
+  options.outlier_rot_deg = 10.0;
+  RelationsResult r = evaluate_relations(estimate, relations, options);
+  EXPECT_NEAR(r.trans_max, 0.6, 1e-9);
+  EXPECT_EQ(r.outliers, 2u);  // 0.6 m, and the 20 degree one
+  options.outlier_rot_deg = 30.0;
+  r = evaluate_relations(estimate, relations, options);
+  EXPECT_EQ(r.outliers, 1u);
+}
+
 TEST(EvaluateRelations, HeadingBiasTurnsATranslationIntoAChord) {
   // The truth says "1 m straight ahead"; the estimate's heading is off by 60 deg, so it went
   // 1 m at 60 deg: est = (cos 60°, sin 60°, 0) = (0.5, 0.866, 0),

@@ -27,6 +27,13 @@ SlamRunStats run_slam(Slam& slam, const std::vector<LaserScan>& scans,
     stats.ms_per_scan.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
     ++stats.scans;
     stats.inserted += step.inserted ? 1 : 0;
+    stats.search_ms.push_back(step.search_ms);
+    if (step.inserted) stats.update_ms.push_back(step.update_ms);
+    if (stats.scans > 1) {
+      const float a = step.fitness.agreement();
+      stats.agreement.push_back(a);
+      if (a < 0.5f) ++stats.weak_matches;
+    }
     if (progress) progress(stats.scans, scans.size(), step);
   }
   stats.wall_s = std::chrono::duration<double>(Clock::now() - start).count();
@@ -71,6 +78,14 @@ void write_slam_outputs(const std::string& dir, const Slam& slam, const SlamRunS
   j["ms_per_scan_p95"] = ms.p95;
   j["ms_per_scan_max"] = ms.max;
   j["ms_per_scan_mean"] = ms.mean;
+  j["search_ms_median"] = summarize(stats.search_ms).median;
+  j["search_ms_p95"] = summarize(stats.search_ms).p95;
+  j["update_ms_median"] = summarize(stats.update_ms).median;
+  j["agreement_median"] = summarize(stats.agreement).median;
+  j["weak_matches"] = stats.weak_matches;
+  j["loop_closures"] = slam.loop_closures();
+  j["loop_closures_rejected"] = slam.loop_closures_rejected();
+  j["key_scans"] = slam.key_scans();
   j["map"] = {
       {"tiles", slam.map().tile_count()},
       {"tile_edge", slam.map().tile_edge()},

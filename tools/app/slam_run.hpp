@@ -18,6 +18,12 @@ struct SlamRunStats {
   std::size_t scans = 0;
   std::size_t inserted = 0;
   std::vector<double> ms_per_scan;  ///< wall time of Slam::process per scan
+  std::vector<double> search_ms;    ///< of which the pose search
+  std::vector<double> update_ms;    ///< of which the map update (scans inserted only)
+  /// Scans whose match put fewer than half of the end points that fell on observed cells on
+  /// occupied ones (FitnessValue::agreement() < 0.5): the search is likely stuck or lost.
+  std::size_t weak_matches = 0;
+  std::vector<double> agreement;  ///< per scan (after the first)
   double wall_s = 0.0;
   bool interrupted = false;
 };

@@ -34,6 +34,10 @@ struct RelationsOptions {
   double time_offset = 0.0;  ///< relation stamp = trajectory stamp + time_offset (fr079: 1211.45)
   double tolerance = 0.15;   ///< a relation stamp matches the nearest trajectory pose within this
                              ///< many seconds (inclusive)
+  /// A relation counts as an outlier (the trajectory broke there) when its error exceeds
+  /// either threshold.
+  double outlier_trans = 0.5;     ///< metres
+  double outlier_rot_deg = 10.0;  ///< degrees
 };
 
 struct RelationsResult {
@@ -41,6 +45,8 @@ struct RelationsResult {
   double rot_mean_deg = 0, rot_std_deg = 0;  ///< degrees, of the absolute rotation error
   std::size_t matched = 0;                   ///< relation lines with both stamps matched
   std::size_t total = 0;                     ///< relation lines given
+  double trans_max = 0;                      ///< metres, worst matched relation
+  std::size_t outliers = 0;                  ///< matched relations beyond the outlier thresholds
 };
 
 /// Scores `trajectory` against `relations` (Kümmerle et al. 2009). For each relation:
