@@ -1,0 +1,86 @@
+// Loop-closure detection on scans ray-cast in a synthetic room: an old key scan and a current
+// scan from a nearby true pose, with a drifted estimate. The match must recover the true
+// relative pose, and nothing must be matched when the old scans are not far enough back.
+
+#include "esfleet/core/loop_closure.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "synthetic_world.hpp"
+
+namespace esfleet {
+namespace {
+
+using testing::asymmetric_room;
+using testing::make_scan;
+
+struct Scene {
+  std::vector<KeyScan> keys;
+  std::vector<Pose2> poses;
+};
+
+/// Six key scans along a line, their mapped poses equal to the truth, path lengths from 0.
+Scene old_keys() {
+  Scene s;
+  const auto world = asymmetric_room();
+  for (int i = 0; i < 6; ++i) {
+    const Pose2 truth{5.0 + 0.4 * i, 4.0, 0.1 * i};
+    KeyScan k;
+    k.stamp = i;
+    k.points = prepare_scan(make_scan(world, truth));
+    k.mapped_pose = truth;
+    k.path_length = 0.4 * i;
+    s.keys.push_back(std::move(k));
+    s.poses.push_back(truth);
+  }
+  return s;
+}
+
+TEST(LoopClosure, RecoversTheTruePoseFromADriftedEstimate) {
+  const Scene scene = old_keys();
+  const Pose2 truth{6.1, 4.3, 0.25};
+  const ScanPoints current = prepare_scan(make_scan(asymmetric_room(), truth));
+  const Pose2 drifted{truth.x + 0.35, truth.y - 0.25, truth.theta + deg_to_rad(3.0)};
+  LoopClosureConfig config;
+  const auto match = find_loop_closure(scene.keys, scene.poses, current, drifted,
+                                       /*path_length=*/40.0, config, GridMapConfig{},
+                                       MapUpdateConfig{}, FitnessOptions{});
+  ASSERT_TRUE(match.has_value());
+  EXPECT_NEAR(match->pose.x, truth.x, 0.05);
+  EXPECT_NEAR(match->pose.y, truth.y, 0.05);
+  EXPECT_NEAR(normalize_angle(match->pose.theta - truth.theta), 0.0, deg_to_rad(1.0));
+  EXPECT_GE(match->value.agreement(), config.min_agreement);
+  // The relative pose is the pose seen from the anchor key scan.
+  const Pose2 rel = match->pose.relative_to(scene.poses[match->anchor]);
+  EXPECT_NEAR(rel.x, match->relative.x, 1e-9);
+  EXPECT_NEAR(rel.y, match->relative.y, 1e-9);
+}
+
+TEST(LoopClosure, IgnoresScansThatAreNotFarEnoughBackAlongThePath) {
+  const Scene scene = old_keys();
+  const Pose2 truth{6.1, 4.3, 0.25};
+  const ScanPoints current = prepare_scan(make_scan(asymmetric_room(), truth));
+  LoopClosureConfig config;
+  config.min_travel = 10.0;
+  // Only 3 m travelled since the first key scan: nothing is old enough to close a loop with.
+  const auto match = find_loop_closure(scene.keys, scene.poses, current, truth, 3.0, config,
+                                       GridMapConfig{}, MapUpdateConfig{}, FitnessOptions{});
+  EXPECT_FALSE(match.has_value());
+}
+
+TEST(LoopClosure, RefusesAnImplausiblyLargeCorrection) {
+  const Scene scene = old_keys();
+  const Pose2 truth{6.1, 4.3, 0.25};
+  const ScanPoints current = prepare_scan(make_scan(asymmetric_room(), truth));
+  // 1.5 m off after only 12 m of travel: more than drift_floor + drift_rate * travel allows.
+  const Pose2 far{truth.x + 1.5, truth.y, truth.theta};
+  LoopClosureConfig config;
+  const auto match = find_loop_closure(scene.keys, scene.poses, current, far, 12.0, config,
+                                       GridMapConfig{}, MapUpdateConfig{}, FitnessOptions{});
+  EXPECT_FALSE(match.has_value());
+}
+
+}  // namespace
+}  // namespace esfleet
