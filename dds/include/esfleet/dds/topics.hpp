@@ -1,0 +1,36 @@
+#pragma once
+// The esfleet DDS contract in one place: topic names, the default domain and the protocol
+// version every message carries. Plain C++ (no Fast DDS headers), cheap to include.
+//
+// Topics (type in esfleet/msg/esfleet.h, generated from idl/esfleet.idl):
+//   esfleet/map/tiles    msg::MapTile       leader -> followers, keyed (map_id, tx, ty)
+//   esfleet/map/meta     msg::MapMeta       leader -> followers, keyed map_id
+//   esfleet/robots/pose  msg::RobotPose     every robot, keyed robot_id
+//   esfleet/robots/scan  msg::LaserScanMsg  every robot (optional), keyed robot_id
+
+#include <cstdint>
+#include <string_view>
+
+namespace esfleet::dds {
+
+/// Version of the wire protocol; every message's `protocol` field must hold it. Mirrors
+/// esfleet::msg::kProtocolVersion in idl/esfleet.idl (a static_assert in node.cpp keeps the two
+/// equal). Readers drop samples of any other protocol.
+inline constexpr std::uint16_t kProtocolVersion = 1;
+
+/// DDS domain used when nothing else is configured.
+inline constexpr int kDefaultDomain = 0;
+/// Highest domain id Fast DDS 2.9 accepts with the default port mapping (233+ overflow the
+/// 16-bit UDP port range).
+inline constexpr int kMaxDomain = 232;
+
+/// Map tiles (msg::MapTile): reliable, transient-local, keep last 1 per tile.
+inline constexpr std::string_view kTileTopic = "esfleet/map/tiles";
+/// Map summaries (msg::MapMeta): reliable, transient-local, keep last 1 per map.
+inline constexpr std::string_view kMetaTopic = "esfleet/map/meta";
+/// Robot poses (msg::RobotPose): reliable, volatile, keep last 1 per robot.
+inline constexpr std::string_view kPoseTopic = "esfleet/robots/pose";
+/// Laser scans (msg::LaserScanMsg): reliable, volatile, keep last 50 per robot.
+inline constexpr std::string_view kScanTopic = "esfleet/robots/scan";
+
+}  // namespace esfleet::dds

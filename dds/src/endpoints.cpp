@@ -1,0 +1,359 @@
+// Writer<Msg> and Reader<Msg> for the four esfleet topics: QoS per topic, DataWriter/DataReader
+// creation and deletion, the DataReader listener that hands samples to the callback, counters.
+// One of the two translation units of esfleet_dds that include Fast DDS headers; the templates
+// are instantiated here for the four message types only.
+
+#include <atomic>
+#include <chrono>
+#include <ctime>
+#include <mutex>
+#include <sstream>
+#include <stdexcept>
+#include <thread>
+
+#include <esfleet/msg/esfleetPubSubTypes.h>
+#include <fastdds/rtps/common/InstanceHandle.h>
+#include <fastdds/dds/core/status/PublicationMatchedStatus.hpp>
+#include <fastdds/dds/core/status/SubscriptionMatchedStatus.hpp>
+#include <fastdds/dds/publisher/DataWriter.hpp>
+#include <fastdds/dds/publisher/qos/DataWriterQos.hpp>
+#include <fastdds/dds/subscriber/DataReader.hpp>
+#include <fastdds/dds/subscriber/DataReaderListener.hpp>
+#include <fastdds/dds/subscriber/SampleInfo.hpp>
+#include <fastdds/dds/subscriber/qos/DataReaderQos.hpp>
+
+#include "esfleet/dds/reader.hpp"
+#include "esfleet/dds/writer.hpp"
+#include "node_impl.hpp"
+
+namespace esfleet::dds {
+
+namespace {
+
+namespace fdds = eprosima::fastdds::dds;
+using eprosima::fastrtps::types::ReturnCode_t;
+
+/// Topic and QoS of each message type.
+template <class Msg>
+struct Traits;
+template <>
+struct Traits<msg::MapTile> {
+  using PubSub = msg::MapTilePubSubType;
+  static constexpr std::string_view kTopic = kTileTopic;
+  static constexpr bool kTransientLocal = true;
+  static constexpr std::int32_t kDepth = 1;
+};
+template <>
+struct Traits<msg::MapMeta> {
+  using PubSub = msg::MapMetaPubSubType;
+  static constexpr std::string_view kTopic = kMetaTopic;
+  static constexpr bool kTransientLocal = true;
+  static constexpr std::int32_t kDepth = 1;
+};
+template <>
+struct Traits<msg::RobotPose> {
+  using PubSub = msg::RobotPosePubSubType;
+  static constexpr std::string_view kTopic = kPoseTopic;
+  static constexpr bool kTransientLocal = false;
+  static constexpr std::int32_t kDepth = 1;
+};
+template <>
+struct Traits<msg::LaserScanMsg> {
+  using PubSub = msg::LaserScanMsgPubSubType;
+  static constexpr std::string_view kTopic = kScanTopic;
+  static constexpr bool kTransientLocal = false;
+  static constexpr std::int32_t kDepth = 50;
+};
+
+/// Sets the QoS both sides share: reliable, durability and KEEP_LAST depth per topic, and
+/// unlimited resource limits. The default max_instances = 10 makes writes to an 11th key fail
+/// silently; once one limit is unlimited, max_samples must be too or the entity is not created.
+template <class Msg, class Qos>
+void set_common_qos(Qos& qos) {
+  qos.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
+  qos.durability().kind = Traits<Msg>::kTransientLocal ? fdds::TRANSIENT_LOCAL_DURABILITY_QOS
+                                                       : fdds::VOLATILE_DURABILITY_QOS;
+  qos.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
+  qos.history().depth = Traits<Msg>::kDepth;
+  qos.resource_limits().max_samples = 0;
+  qos.resource_limits().max_instances = 0;
+  qos.resource_limits().max_samples_per_instance = 0;
+}
+
+std::int64_t realtime_ns() {
+  timespec ts{};
+  clock_gettime(CLOCK_REALTIME, &ts);
+  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
+}
+
+/// Polls `count_now` every 10 ms until it reaches `count` or `timeout` passes.
+template <class F>
+bool poll_until(int count, std::chrono::milliseconds timeout, F count_now) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  while (true) {
+    if (count_now() >= count) return true;
+    if (std::chrono::steady_clock::now() >= deadline) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+}
+
+}  // namespace
+
+namespace detail {
+
+template <class Msg>
+struct WriterImpl {
+  std::shared_ptr<NodeImpl> node;
+  typename Traits<Msg>::PubSub type;  ///< for getSerializedSizeProvider
+  fdds::DataWriter* writer = nullptr;
+  std::atomic<std::uint64_t> samples{0};
+  std::atomic<std::uint64_t> bytes{0};
+  std::atomic<std::uint64_t> failures{0};
+};
+
+/// The DataReader's listener: the only place samples are taken. Only data_available is enabled.
+template <class Msg>
+struct ReaderImpl : fdds::DataReaderListener {
+  std::shared_ptr<NodeImpl> node;
+  typename Traits<Msg>::PubSub type;  ///< for getSerializedSizeProvider
+  typename Reader<Msg>::Callback callback;
+  fdds::DataReader* reader = nullptr;
+
+  std::mutex callback_mutex;           ///< held while taking and delivering; serialises callbacks
+  bool stopped = false;                ///< guarded by callback_mutex
+  Msg sample;                          ///< reused for every take; guarded by callback_mutex
+  fdds::InstanceHandle_t last_writer;  ///< cache for writer_guid, guarded by callback_mutex
+  std::string last_writer_guid;
+
+  std::atomic<std::uint64_t> samples{0};
+  std::atomic<std::uint64_t> bytes{0};
+  std::atomic<std::uint64_t> mismatches{0};
+  std::atomic<std::uint64_t> errors{0};
+
+  void on_data_available(fdds::DataReader* r) override {
+    std::lock_guard lock(callback_mutex);
+    if (stopped) return;
+    fdds::SampleInfo info;
+    while (r->take_next_sample(&sample, &info) == ReturnCode_t::RETCODE_OK) {
+      if (!info.valid_data) continue;  // dispose / unregister notifications carry no data
+      if (sample.protocol() != kProtocolVersion) {
+        mismatches.fetch_add(1, std::memory_order_relaxed);
+        continue;
+      }
+      SampleMeta meta;
+      if (info.publication_handle != last_writer || last_writer_guid.empty()) {
+        std::ostringstream guid;
+        guid << eprosima::fastrtps::rtps::iHandle2GUID(info.publication_handle);
+        last_writer = info.publication_handle;
+        last_writer_guid = guid.str();
+      }
+      meta.writer_guid = last_writer_guid;
+      meta.source_timestamp_ns = info.source_timestamp.to_ns();
+      meta.reception_ns = info.reception_timestamp.to_ns();
+      if (meta.reception_ns <= 0) meta.reception_ns = realtime_ns();
+      const std::uint32_t size = type.getSerializedSizeProvider(&sample)();
+      try {
+        callback(sample, meta);
+      } catch (...) {
+        errors.fetch_add(1, std::memory_order_relaxed);
+      }
+      // Counted after the callback: whoever sees samples_received() == n knows that n
+      // callbacks have returned.
+      bytes.fetch_add(size, std::memory_order_relaxed);
+      samples.fetch_add(1, std::memory_order_release);
+    }
+  }
+};
+
+}  // namespace detail
+
+// ---------------------------------------------------------------------------------------------
+// Writer
+
+template <class Msg>
+Writer<Msg>::Writer(Node& node) : impl_(std::make_unique<detail::WriterImpl<Msg>>()) {
+  using T = Traits<Msg>;
+  impl_->node = node.impl_;
+  detail::NodeImpl& n = *impl_->node;
+  std::lock_guard lock(n.entity_mutex);
+  if (n.participant == nullptr) {
+    throw std::runtime_error("esfleet::dds: cannot create a writer of " + std::string(T::kTopic) +
+                             ": the node is closed");
+  }
+  fdds::Topic* topic = n.topic(T::kTopic, fdds::TypeSupport(new typename T::PubSub()));
+  fdds::DataWriterQos qos = n.publisher->get_default_datawriter_qos();
+  set_common_qos<Msg>(qos);
+  // Heartbeat every 100 ms (default 3 s): a lost last sample is repaired within ~100 ms.
+  qos.reliable_writer_qos().times.heartbeatPeriod = eprosima::fastrtps::Duration_t(0, 100'000'000);
+  impl_->writer = n.publisher->create_datawriter(topic, qos, nullptr, fdds::StatusMask::none());
+  if (impl_->writer == nullptr) {
+    throw std::runtime_error("esfleet::dds: cannot create the DataWriter of " +
+                             std::string(T::kTopic));
+  }
+}
+
+template <class Msg>
+Writer<Msg>::~Writer() {
+  if (!impl_) return;
+  detail::NodeImpl& n = *impl_->node;
+  std::lock_guard lock(n.entity_mutex);
+  if (n.participant != nullptr && impl_->writer != nullptr) {
+    n.publisher->delete_datawriter(impl_->writer);
+  }
+}
+
+template <class Msg>
+bool Writer<Msg>::write(const Msg& sample) {
+  auto fail = [this] {
+    impl_->failures.fetch_add(1, std::memory_order_relaxed);
+    return false;
+  };
+  if (sample.protocol() != kProtocolVersion) return fail();
+  // Fast DDS takes a non-const pointer but only reads the sample.
+  void* data = const_cast<Msg*>(&sample);
+  std::shared_lock lock(impl_->node->state_mutex);
+  if (impl_->node->closed) return fail();
+  if (impl_->writer->write(data, fdds::HANDLE_NIL) != ReturnCode_t::RETCODE_OK) return fail();
+  impl_->bytes.fetch_add(impl_->type.getSerializedSizeProvider(data)(), std::memory_order_relaxed);
+  impl_->samples.fetch_add(1, std::memory_order_relaxed);
+  return true;
+}
+
+template <class Msg>
+std::string_view Writer<Msg>::topic_name() const {
+  return Traits<Msg>::kTopic;
+}
+
+template <class Msg>
+std::uint64_t Writer<Msg>::samples_written() const {
+  return impl_->samples.load(std::memory_order_relaxed);
+}
+
+template <class Msg>
+std::uint64_t Writer<Msg>::bytes_written() const {
+  return impl_->bytes.load(std::memory_order_relaxed);
+}
+
+template <class Msg>
+std::uint64_t Writer<Msg>::write_failures() const {
+  return impl_->failures.load(std::memory_order_relaxed);
+}
+
+template <class Msg>
+int Writer<Msg>::matched_readers() const {
+  std::shared_lock lock(impl_->node->state_mutex);
+  if (impl_->node->closed) return 0;
+  fdds::PublicationMatchedStatus status;
+  impl_->writer->get_publication_matched_status(status);
+  return status.current_count;
+}
+
+template <class Msg>
+bool Writer<Msg>::wait_for_matched(int count, std::chrono::milliseconds timeout) const {
+  return poll_until(count, timeout, [this] { return matched_readers(); });
+}
+
+template <class Msg>
+bool Writer<Msg>::wait_for_acknowledgments(std::chrono::milliseconds timeout) const {
+  std::shared_lock lock(impl_->node->state_mutex);
+  if (impl_->node->closed) return false;
+  const auto ns = std::chrono::nanoseconds(timeout).count();
+  const eprosima::fastrtps::Duration_t max_wait(static_cast<std::int32_t>(ns / 1'000'000'000),
+                                                static_cast<std::uint32_t>(ns % 1'000'000'000));
+  return impl_->writer->wait_for_acknowledgments(max_wait) == ReturnCode_t::RETCODE_OK;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Reader
+
+template <class Msg>
+Reader<Msg>::Reader(Node& node, Callback callback)
+    : impl_(std::make_unique<detail::ReaderImpl<Msg>>()) {
+  using T = Traits<Msg>;
+  if (!callback) {
+    throw std::invalid_argument("esfleet::dds: the callback of a reader of " +
+                                std::string(T::kTopic) + " is empty");
+  }
+  impl_->callback = std::move(callback);
+  impl_->node = node.impl_;
+  detail::NodeImpl& n = *impl_->node;
+  std::lock_guard lock(n.entity_mutex);
+  if (n.participant == nullptr) {
+    throw std::runtime_error("esfleet::dds: cannot create a reader of " + std::string(T::kTopic) +
+                             ": the node is closed");
+  }
+  fdds::Topic* topic = n.topic(T::kTopic, fdds::TypeSupport(new typename T::PubSub()));
+  fdds::DataReaderQos qos = n.subscriber->get_default_datareader_qos();
+  set_common_qos<Msg>(qos);
+  // The listener is attached to the DataReader with only data_available enabled (pitfall 1).
+  impl_->reader =
+      n.subscriber->create_datareader(topic, qos, impl_.get(), fdds::StatusMask::data_available());
+  if (impl_->reader == nullptr) {
+    throw std::runtime_error("esfleet::dds: cannot create the DataReader of " +
+                             std::string(T::kTopic));
+  }
+}
+
+template <class Msg>
+Reader<Msg>::~Reader() {
+  if (!impl_) return;
+  {
+    std::lock_guard lock(impl_->callback_mutex);  // waits for a running callback
+    impl_->stopped = true;
+  }
+  detail::NodeImpl& n = *impl_->node;
+  std::lock_guard lock(n.entity_mutex);
+  if (n.participant != nullptr && impl_->reader != nullptr) {
+    n.subscriber->delete_datareader(impl_->reader);
+  }
+}
+
+template <class Msg>
+std::string_view Reader<Msg>::topic_name() const {
+  return Traits<Msg>::kTopic;
+}
+
+template <class Msg>
+std::uint64_t Reader<Msg>::samples_received() const {
+  return impl_->samples.load(std::memory_order_acquire);
+}
+
+template <class Msg>
+std::uint64_t Reader<Msg>::bytes_received() const {
+  return impl_->bytes.load(std::memory_order_relaxed);
+}
+
+template <class Msg>
+std::uint64_t Reader<Msg>::protocol_mismatches() const {
+  return impl_->mismatches.load(std::memory_order_relaxed);
+}
+
+template <class Msg>
+std::uint64_t Reader<Msg>::callback_errors() const {
+  return impl_->errors.load(std::memory_order_relaxed);
+}
+
+template <class Msg>
+int Reader<Msg>::matched_writers() const {
+  std::shared_lock lock(impl_->node->state_mutex);
+  if (impl_->node->closed) return 0;
+  fdds::SubscriptionMatchedStatus status;
+  impl_->reader->get_subscription_matched_status(status);
+  return status.current_count;
+}
+
+template <class Msg>
+bool Reader<Msg>::wait_for_matched(int count, std::chrono::milliseconds timeout) const {
+  return poll_until(count, timeout, [this] { return matched_writers(); });
+}
+
+template class Writer<msg::MapTile>;
+template class Writer<msg::MapMeta>;
+template class Writer<msg::RobotPose>;
+template class Writer<msg::LaserScanMsg>;
+template class Reader<msg::MapTile>;
+template class Reader<msg::MapMeta>;
+template class Reader<msg::RobotPose>;
+template class Reader<msg::LaserScanMsg>;
+
+}  // namespace esfleet::dds
