@@ -1,0 +1,260 @@
+#include "esfleet/dds/map_convert.hpp"
+
+#include <bit>
+#include <cmath>
+#include <ctime>
+#include <stdexcept>
+
+namespace esfleet::dds {
+
+std::int64_t realtime_ns() {
+  timespec ts{};
+  clock_gettime(CLOCK_REALTIME, &ts);
+  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
+}
+
+std::uint64_t map_version(const GridMap& map) {
+  std::uint64_t sum = 0;
+  for (const TileKey k : map.tile_keys()) sum += map.find_tile(k)->version;
+  return sum;
+}
+
+msg::MapTile tile_to_msg(const GridMap& map, TileKey key, const MapIdentity& id,
+                         TileEncoding encoding, std::int64_t stamp_ns) {
+  const Tile* tile = map.find_tile(key);
+  if (tile == nullptr) {
+    throw std::invalid_argument("no tile (" + std::to_string(key.tx) + ", " +
+                                std::to_string(key.ty) + ") in the map");
+  }
+  msg::MapTile m;
+  m.map_id(id.map_id);
+  m.tx(key.tx);
+  m.ty(key.ty);
+  m.protocol(msg::kProtocolVersion);
+  m.epoch(id.epoch);
+  m.version(tile->version);
+  m.cell_size(static_cast<float>(map.cell_size()));
+  m.tile_edge(static_cast<std::uint16_t>(map.tile_edge()));
+  EncodedTile e = encode_tile(tile->hit, tile->err, encoding);
+  m.encoding(static_cast<std::uint8_t>(e.encoding));
+  m.cells(static_cast<std::uint32_t>(map.cells_per_tile()));
+  m.payload(std::move(e.payload));
+  m.leader_stamp_ns(static_cast<std::uint64_t>(stamp_ns));
+  return m;
+}
+
+msg::MapMeta meta_to_msg(const GridMap& map, const MapIdentity& id, bool complete,
+                         std::uint32_t scans, const std::string& params_json,
+                         std::int64_t stamp_ns) {
+  msg::MapMeta m;
+  m.map_id(id.map_id);
+  m.protocol(msg::kProtocolVersion);
+  m.epoch(id.epoch);
+  m.cell_size(static_cast<float>(map.cell_size()));
+  m.tile_edge(static_cast<std::uint16_t>(map.tile_edge()));
+  const auto keys = map.tile_keys();
+  if (!keys.empty()) {
+    std::int32_t min_tx = keys.front().tx, max_tx = keys.front().tx;
+    std::int32_t min_ty = keys.front().ty, max_ty = keys.front().ty;
+    for (const TileKey k : keys) {
+      min_tx = std::min(min_tx, k.tx);
+      max_tx = std::max(max_tx, k.tx);
+      min_ty = std::min(min_ty, k.ty);
+      max_ty = std::max(max_ty, k.ty);
+    }
+    m.min_tx(min_tx);
+    m.min_ty(min_ty);
+    m.max_tx(max_tx);
+    m.max_ty(max_ty);
+  }
+  m.tile_count(static_cast<std::uint32_t>(keys.size()));
+  m.map_version(map_version(map));
+  m.complete(complete);
+  m.scans(scans);
+  // The field holds at most 1024 characters: a longer parameter dump is cut, not refused.
+  m.es_params(params_json.size() <= 1024 ? params_json : params_json.substr(0, 1024));
+  m.stamp_ns(static_cast<std::uint64_t>(stamp_ns));
+  return m;
+}
+
+msg::RobotPose pose_to_msg(const std::string& robot_id, const TimedPose& pose, float fitness,
+                           std::uint8_t status) {
+  msg::RobotPose m;
+  m.robot_id(robot_id);
+  m.protocol(msg::kProtocolVersion);
+  m.stamp(pose.stamp);
+  m.x(pose.pose.x);
+  m.y(pose.pose.y);
+  m.theta(pose.pose.theta);
+  m.fitness(fitness);
+  m.status(status);
+  return m;
+}
+
+msg::LaserScanMsg scan_to_msg(const std::string& robot_id, std::uint32_t seq,
+                              const LaserScan& scan) {
+  msg::LaserScanMsg m;
+  m.robot_id(robot_id);
+  m.protocol(msg::kProtocolVersion);
+  m.seq(seq);
+  m.stamp(scan.stamp);
+  m.angle_min(scan.angle_min);
+  m.angle_increment(scan.angle_increment);
+  m.max_range(scan.max_range);
+  m.ranges(scan.ranges);
+  m.has_odometry(scan.odometry.has_value());
+  if (scan.odometry) {
+    m.odom_x(scan.odometry->x);
+    m.odom_y(scan.odometry->y);
+    m.odom_theta(scan.odometry->theta);
+  }
+  return m;
+}
+
+LaserScan scan_from_msg(const msg::LaserScanMsg& m) {
+  constexpr std::size_t kMaxBeams = 10000;
+  auto fail = [](const std::string& what) {
+    throw std::invalid_argument("laser scan message: " + what);
+  };
+  if (m.ranges().empty()) fail("ranges is empty");
+  if (m.ranges().size() > kMaxBeams) {
+    fail("ranges has " + std::to_string(m.ranges().size()) + " beams, more than 10000");
+  }
+  if (!std::isfinite(m.stamp())) fail("stamp is not finite");
+  if (!std::isfinite(m.angle_min()) || !std::isfinite(m.angle_increment()) ||
+      std::abs(m.angle_min()) > 7.0f || std::abs(m.angle_increment()) > 1.0f) {
+    fail("angle_min / angle_increment out of range");
+  }
+  if (!(m.max_range() > 0.0f) || !std::isfinite(m.max_range())) fail("max_range must be > 0");
+  LaserScan s;
+  s.stamp = m.stamp();
+  s.angle_min = m.angle_min();
+  s.angle_increment = m.angle_increment();
+  s.max_range = m.max_range();
+  s.ranges = m.ranges();  // NaN / negative beams are skipped by the SLAM, not an error here
+  if (m.has_odometry()) {
+    if (!std::isfinite(m.odom_x()) || !std::isfinite(m.odom_y()) ||
+        !std::isfinite(m.odom_theta())) {
+      fail("odometry is not finite");
+    }
+    s.odometry = Pose2{m.odom_x(), m.odom_y(), m.odom_theta()};
+  }
+  return s;
+}
+
+MapReplica::MapReplica(std::string map_id, GridMapConfig local)
+    : map_id_(std::move(map_id)), local_(local) {
+  local_.validate();
+}
+
+void MapReplica::reset(std::uint32_t epoch, float cell_size, int tile_edge) {
+  GridMapConfig c = local_;
+  c.cell_size = cell_size;
+  c.tile_edge = tile_edge;
+  if ((1 << c.pyramid_levels) > tile_edge) c.pyramid_levels = 0;
+  map_.reset();
+  map_.emplace(c);
+  epoch_ = epoch;
+  meta_.reset();
+}
+
+std::string MapReplica::check_layout(float cell_size, std::uint32_t tile_edge,
+                                     bool against_map) const {
+  if (!std::isfinite(cell_size) || !(cell_size > 0.0f) || cell_size > 10.0f) {
+    return "cell_size " + std::to_string(cell_size) + " is not in (0, 10] m";
+  }
+  if (tile_edge < 8 || tile_edge > 1024 || !std::has_single_bit(tile_edge)) {
+    return "tile_edge " + std::to_string(tile_edge) + " is not a power of two in [8, 1024]";
+  }
+  if (against_map && map_) {
+    if (static_cast<float>(map_->cell_size()) != cell_size) {
+      return "cell_size " + std::to_string(cell_size) + " differs from the map's " +
+             std::to_string(map_->cell_size());
+    }
+    if (static_cast<std::uint32_t>(map_->tile_edge()) != tile_edge) {
+      return "tile_edge " + std::to_string(tile_edge) + " differs from the map's " +
+             std::to_string(map_->tile_edge());
+    }
+  }
+  return {};
+}
+
+namespace {
+Applied reject(std::string* error, std::string what) {
+  if (error != nullptr) *error = std::move(what);
+  return Applied::kRejected;
+}
+}  // namespace
+
+Applied MapReplica::apply(const msg::MapTile& t, std::string* error) {
+  if (t.protocol() != msg::kProtocolVersion) {
+    return reject(error, "protocol " + std::to_string(t.protocol()) + ", expected " +
+                             std::to_string(msg::kProtocolVersion));
+  }
+  const std::string id = t.map_id().to_string();
+  if (!map_id_.empty() && id != map_id_) return Applied::kIgnored;
+  if (t.epoch() < epoch_) return Applied::kIgnored;
+  // A tile of a newer epoch (or the first one) starts a map: only the ranges are checked.
+  const bool fresh = !map_ || t.epoch() > epoch_;
+  if (std::string e = check_layout(t.cell_size(), t.tile_edge(), !fresh); !e.empty()) {
+    return reject(error, e);
+  }
+  const std::size_t cells = static_cast<std::size_t>(t.tile_edge()) * t.tile_edge();
+  if (t.cells() != cells) {
+    return reject(error, "cells " + std::to_string(t.cells()) +
+                             ", expected tile_edge^2 = " + std::to_string(cells));
+  }
+  const TileKey key{t.tx(), t.ty()};
+  if (std::abs(static_cast<std::int64_t>(key.tx)) > local_.max_tile_coord ||
+      std::abs(static_cast<std::int64_t>(key.ty)) > local_.max_tile_coord) {
+    return reject(error, "tile (" + std::to_string(key.tx) + ", " + std::to_string(key.ty) +
+                             ") is outside +-" + std::to_string(local_.max_tile_coord));
+  }
+  if (!fresh) {
+    if (const Tile* have = map_->find_tile(key); have != nullptr && have->version >= t.version()) {
+      return Applied::kStale;
+    }
+  }
+  try {
+    decode_tile(static_cast<TileEncoding>(t.encoding()), t.payload(), cells, hit_, err_);
+  } catch (const std::exception& e) {
+    return reject(error, std::string("payload: ") + e.what());
+  }
+  if (fresh) {
+    if (map_id_.empty()) map_id_ = id;
+    reset(t.epoch(), t.cell_size(), t.tile_edge());
+  }
+  map_->set_tile(key, t.version(), hit_, err_);
+  return Applied::kApplied;
+}
+
+Applied MapReplica::apply(const msg::MapMeta& m, std::string* error) {
+  if (m.protocol() != msg::kProtocolVersion) {
+    return reject(error, "protocol " + std::to_string(m.protocol()) + ", expected " +
+                             std::to_string(msg::kProtocolVersion));
+  }
+  const std::string id = m.map_id().to_string();
+  if (!map_id_.empty() && id != map_id_) return Applied::kIgnored;
+  if (m.epoch() < epoch_) return Applied::kIgnored;
+  const bool new_epoch = m.epoch() > epoch_ || !map_;
+  if (std::string e = check_layout(m.cell_size(), m.tile_edge(), !new_epoch); !e.empty()) {
+    return reject(error, e);
+  }
+  if (m.min_tx() > m.max_tx() && m.tile_count() > 0) return reject(error, "min_tx > max_tx");
+  if (m.min_ty() > m.max_ty() && m.tile_count() > 0) return reject(error, "min_ty > max_ty");
+  if (new_epoch) {
+    if (map_id_.empty()) map_id_ = id;
+    reset(m.epoch(), m.cell_size(), m.tile_edge());
+  } else if (meta_ && meta_->map_version() > m.map_version()) {
+    return Applied::kStale;  // an older summary arriving late
+  }
+  meta_ = m;
+  return Applied::kApplied;
+}
+
+bool MapReplica::complete() const {
+  return map_ && meta_ && meta_->complete() && meta_->epoch() == epoch_ &&
+         meta_->tile_count() == map_->tile_count() && meta_->map_version() == map_version(*map_);
+}
+
+}  // namespace esfleet::dds
