@@ -6,6 +6,7 @@
 #include <filesystem>
 
 #include "esfleet/core/map_io.hpp"
+#include "esfleet/core/tile_codec.hpp"
 #include "esfleet/core/trajectory_io.hpp"
 
 namespace esfleet::app {
@@ -52,6 +53,7 @@ Summary summarize(std::vector<double> v) {
   };
   s.median = quantile(0.5);
   s.p95 = quantile(0.95);
+  s.p99 = quantile(0.99);
   s.max = v.back();
   double sum = 0;
   for (double x : v) sum += x;
@@ -65,6 +67,7 @@ void write_slam_outputs(const std::string& dir, const Slam& slam, const SlamRunS
   save_ros_map(slam.map(), dir, "map");
   save_map_png(slam.map(), slam.trajectory(), dir + "/map.png");
   write_trajectory(dir + "/trajectory.txt", slam.trajectory());
+  write_file_atomically(dir + "/map.digest", map_digest(slam.map()));
 
   const Summary ms = summarize(stats.ms_per_scan);
   const GridMap::Bounds b = slam.map().known_bounds();

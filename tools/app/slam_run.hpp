@@ -35,14 +35,14 @@ using SlamProgress = std::function<void(std::size_t, std::size_t, const SlamStep
 SlamRunStats run_slam(Slam& slam, const std::vector<LaserScan>& scans,
                       const std::atomic<bool>* stop = nullptr, const SlamProgress& progress = {});
 
-/// Median, p95, max and mean of a sample (milliseconds in, same out); zeros when empty.
+/// Median, p95, p99, max and mean of a sample (milliseconds in, same out); zeros when empty.
 struct Summary {
-  double median = 0, p95 = 0, max = 0, mean = 0;
+  double median = 0, p95 = 0, p99 = 0, max = 0, mean = 0;
 };
 Summary summarize(std::vector<double> values);
 
-/// Writes map.pgm, map.yaml, map.png, trajectory.txt and stats.json into `dir` (created if
-/// needed), each atomically. `extra` is merged into stats.json.
+/// Writes map.pgm, map.yaml, map.png, trajectory.txt, map.digest (tile_codec.hpp) and stats.json
+/// into `dir` (created if needed), each atomically. `extra` is merged into stats.json.
 void write_slam_outputs(const std::string& dir, const Slam& slam, const SlamRunStats& stats,
                         const nlohmann::json& extra);
 

@@ -1,0 +1,65 @@
+#pragma once
+// The follower's side of map sharing: DDS callbacks hand received tiles and summaries to the
+// application thread through a locked queue; the application thread applies them to a
+// MapReplica, counts what it dropped (logging once per sending writer and reason) and measures
+// the tile latency (leader publish -> applied here).
+
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <mutex>
+#include <set>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include "esfleet/dds/map_convert.hpp"
+#include "esfleet/dds/reader.hpp"
+
+namespace esfleet::follower {
+
+struct FollowStats {
+  std::uint64_t tiles_received = 0;
+  std::uint64_t tiles_applied = 0;
+  std::uint64_t tiles_stale = 0;
+  std::uint64_t tiles_ignored = 0;  ///< other map id / older epoch
+  std::uint64_t tiles_rejected = 0;
+  std::uint64_t meta_received = 0;
+  std::uint64_t meta_rejected = 0;
+  std::uint64_t bytes_received = 0;
+  std::vector<double> latency_ms;  ///< per applied tile: leader publish -> applied here
+};
+
+class MapFollower {
+ public:
+  MapFollower(dds::Node& node, std::string map_id, GridMapConfig local = {});
+
+  /// Applies what arrived (waiting up to `timeout` for something); returns true if the map
+  /// changed.
+  bool spin_once(std::chrono::milliseconds timeout);
+
+  const dds::MapReplica& replica() const { return replica_; }
+  const FollowStats& stats() const { return stats_; }
+  int matched_leaders() const { return tiles_.matched_writers(); }
+
+ private:
+  struct Received {
+    std::variant<msg::MapTile, msg::MapMeta> sample;
+    std::string writer;
+  };
+  void push(Received r);
+  void handle(const Received& r);
+  void log_once(const std::string& writer, const char* kind, const std::string& what);
+
+  dds::MapReplica replica_;
+  FollowStats stats_;
+  std::mutex mutex_;
+  std::condition_variable cv_;
+  std::deque<Received> queue_;
+  std::set<std::string> logged_;
+  // Readers last: they are destroyed first, so no callback runs into a dead queue.
+  dds::TileReader tiles_;
+  dds::MetaReader meta_;
+};
+
+}  // namespace esfleet::follower
