@@ -34,7 +34,7 @@ struct OnlineOptions {
   double rate = 0.0;            ///< 0 = as fast as possible, 1 = recorded speed
   double publish_period = 1.0;  ///< seconds of log time between publishes
   double linger = -1.0;         ///< seconds to keep serving after the log; < 0 = until stopped
-  std::string encoding = "zlib";
+  std::string encoding = "med";
 };
 
 }  // namespace
@@ -82,8 +82,10 @@ int main(int argc, char** argv) {
   dds->add_option("--linger", o.linger,
                   "after the log: keep serving the map this many seconds (< 0: until Ctrl-C)")
       ->capture_default_str();
-  dds->add_option("--encoding", o.encoding, "tile payload encoding")
-      ->check(CLI::IsMember({"zlib", "raw"}))
+  dds->add_option("--encoding", o.encoding,
+                  "tile payload encoding: med = predicted residuals + zlib (smallest), varint = "
+                  "varints + zlib, raw = 8 bytes per cell")
+      ->check(CLI::IsMember({"med", "varint", "raw"}))
       ->capture_default_str();
 
   SlamConfig config;
@@ -141,7 +143,9 @@ int main(int argc, char** argv) {
       node = std::make_unique<dds::Node>(dds::NodeOptions{o.domain, o.profile, "esfleet-leader"});
       publisher = std::make_unique<leader::MapPublisher>(
           *node, dds::MapIdentity{o.map_id, o.epoch}, o.robot_id,
-          o.encoding == "raw" ? TileEncoding::kRaw : TileEncoding::kVarintZlib);
+          o.encoding == "raw"      ? TileEncoding::kRaw
+          : o.encoding == "varint" ? TileEncoding::kVarintZlib
+                                   : TileEncoding::kMedZlib);
     } catch (const std::exception& e) {
       spdlog::error("DDS: {}", e.what());
       return 2;

@@ -28,7 +28,7 @@ struct PublishStats {
 class MapPublisher {
  public:
   MapPublisher(dds::Node& node, dds::MapIdentity id, std::string robot_id,
-               TileEncoding encoding = TileEncoding::kVarintZlib);
+               TileEncoding encoding = TileEncoding::kMedZlib);
 
   /// Publishes every tile changed since the last call (takes the map's dirty set), then the
   /// summary, then the pose.

@@ -3,8 +3,10 @@
 #include <zlib.h>
 
 #include <algorithm>
+#include <cmath>
 #include <memory>
 #include <new>
+#include <optional>
 #include <string>
 
 namespace esfleet {
@@ -68,6 +70,8 @@ std::vector<std::uint8_t> encode_raw(std::span<const std::uint32_t> hit,
   return out;
 }
 
+std::vector<std::uint8_t> deflate_bytes(const std::uint8_t* data, std::size_t n, int level);
+
 std::vector<std::uint8_t> encode_varint_zlib(std::span<const std::uint32_t> hit,
                                              std::span<const std::uint32_t> err, int level) {
   const std::size_t cells = hit.size();
@@ -77,14 +81,68 @@ std::vector<std::uint8_t> encode_varint_zlib(std::span<const std::uint32_t> hit,
     n += put_varint(hit[i], varints.get() + n);
     n += put_varint(err[i], varints.get() + n);
   }
+  return deflate_bytes(varints.get(), n, level);
+}
+
+/// Cells per edge of a square tile of `cells` cells, or nothing if `cells` is not a square.
+std::optional<std::size_t> square_edge(std::size_t cells) {
+  auto edge = static_cast<std::size_t>(std::sqrt(static_cast<double>(cells)));
+  while (edge * edge > cells) --edge;
+  while ((edge + 1) * (edge + 1) <= cells) ++edge;
+  if (edge * edge != cells) return std::nullopt;
+  return edge;
+}
+
+/// LOCO-I's median edge detector: predicts cell i of a row-major edge x edge plane from its
+/// left (a), upper (b) and upper-left (c) neighbours, already known to the decoder.
+std::uint32_t med_predict(const std::uint32_t* v, std::size_t i, std::size_t edge) {
+  const std::size_t x = i % edge, y = i / edge;
+  const std::int64_t a = x > 0 ? v[i - 1] : (y > 0 ? v[i - edge] : 0);
+  const std::int64_t b = y > 0 ? v[i - edge] : a;
+  const std::int64_t c = (x > 0 && y > 0) ? v[i - edge - 1] : b;
+  const std::int64_t hi = std::max(a, b), lo = std::min(a, b);
+  // a + b - c lies in [lo, hi] in the last case, so the prediction is a valid uint32.
+  return static_cast<std::uint32_t>(c >= hi ? lo : c <= lo ? hi : a + b - c);
+}
+
+/// Residuals wrap modulo 2^32, so every (value, prediction) pair has one and the decoder's
+/// prediction + residual is always a valid uint32.
+std::uint32_t zigzag(std::uint32_t value, std::uint32_t prediction) {
+  const auto d = static_cast<std::int32_t>(value - prediction);
+  return (static_cast<std::uint32_t>(d) << 1) ^ static_cast<std::uint32_t>(d >> 31);
+}
+std::uint32_t unzigzag(std::uint32_t z, std::uint32_t prediction) {
+  return prediction + ((z >> 1) ^ (0u - (z & 1u)));
+}
+
+std::vector<std::uint8_t> deflate_bytes(const std::uint8_t* data, std::size_t n, int level) {
   // n <= 10 * kMaxTileCells, so it fits zlib's uLong.
   uLongf packed_size = compressBound(static_cast<uLong>(n));
   const auto packed = std::make_unique_for_overwrite<std::uint8_t[]>(packed_size);
-  const int rc = compress2(packed.get(), &packed_size, varints.get(), static_cast<uLong>(n), level);
+  const int rc = compress2(packed.get(), &packed_size, data, static_cast<uLong>(n), level);
   if (rc == Z_MEM_ERROR) throw std::bad_alloc();
   if (rc != Z_OK) throw std::runtime_error(std::string("encode_tile: zlib: ") + zError(rc));
   // Copied out so the payload's capacity is its size, not compressBound(n).
   return std::vector<std::uint8_t>(packed.get(), packed.get() + packed_size);
+}
+
+std::vector<std::uint8_t> encode_med_zlib(std::span<const std::uint32_t> hit,
+                                          std::span<const std::uint32_t> err, int level) {
+  const std::size_t cells = hit.size();
+  const auto square = square_edge(cells);
+  if (!square) {
+    throw std::invalid_argument("encode_tile: " + std::to_string(cells) +
+                                " cells is not a square tile (needed by the MED encoding)");
+  }
+  const std::size_t edge = *square;
+  const auto varints = std::make_unique_for_overwrite<std::uint8_t[]>(varint_bound(cells));
+  std::size_t n = 0;
+  for (const std::span<const std::uint32_t> plane : {hit, err}) {
+    for (std::size_t i = 0; i < cells; ++i) {
+      n += put_varint(zigzag(plane[i], med_predict(plane.data(), i, edge)), varints.get() + n);
+    }
+  }
+  return deflate_bytes(varints.get(), n, level);
 }
 
 void decode_raw(std::span<const std::uint8_t> payload, std::size_t cells,
@@ -215,6 +273,37 @@ void decode_varint_zlib(std::span<const std::uint8_t> payload, std::size_t cells
   }
 }
 
+void decode_med_zlib(std::span<const std::uint8_t> payload, std::size_t cells,
+                     std::vector<std::uint32_t>& hit, std::vector<std::uint32_t>& err) {
+  const auto square = square_edge(cells);
+  if (!square) throw TileDecodeError(std::to_string(cells) + " cells is not a square tile");
+  const std::size_t edge = *square;
+  const std::size_t bound = varint_bound(cells);
+  const auto buffer = std::make_unique_for_overwrite<std::uint8_t[]>(bound);
+  const std::size_t size = inflate_bounded(payload, buffer.get(), bound, cells);
+  hit.resize(cells);
+  err.resize(cells);
+  const std::uint8_t* p = buffer.get();
+  const std::uint8_t* const end = p + size;
+  std::size_t plane_index = 0;
+  for (std::vector<std::uint32_t>* plane : {&hit, &err}) {
+    std::uint32_t* v = plane->data();
+    const char* field = plane_index++ == 0 ? "hit" : "err";
+    for (std::size_t i = 0; i < cells; ++i) {
+      std::uint32_t z = 0;
+      if (!read_varint(p, end, z, i, field)) {
+        throw TileDecodeError("varint stream ends after " + std::to_string(i) + " of " +
+                              std::to_string(cells) + " " + field + " cells");
+      }
+      v[i] = unzigzag(z, med_predict(v, i, edge));
+    }
+  }
+  if (p != end) {
+    throw TileDecodeError("trailing bytes: " + std::to_string(end - p) + " after the last of " +
+                          std::to_string(cells) + " cells");
+  }
+}
+
 }  // namespace
 
 EncodedTile encode_tile(std::span<const std::uint32_t> hit, std::span<const std::uint32_t> err,
@@ -225,6 +314,8 @@ EncodedTile encode_tile(std::span<const std::uint32_t> hit, std::span<const std:
       return {enc, encode_raw(hit, err)};
     case TileEncoding::kVarintZlib:
       return {enc, encode_varint_zlib(hit, err, zlib_level)};
+    case TileEncoding::kMedZlib:
+      return {enc, encode_med_zlib(hit, err, zlib_level)};
   }
   throw std::invalid_argument("encode_tile: unknown encoding " +
                               std::to_string(static_cast<unsigned>(enc)));
@@ -242,6 +333,9 @@ void decode_tile(TileEncoding enc, std::span<const std::uint8_t> payload, std::s
       return;
     case TileEncoding::kVarintZlib:
       decode_varint_zlib(payload, cells, hit, err);
+      return;
+    case TileEncoding::kMedZlib:
+      decode_med_zlib(payload, cells, hit, err);
       return;
   }
   throw TileDecodeError("unknown encoding " + std::to_string(static_cast<unsigned>(enc)));

@@ -154,16 +154,26 @@ std::uint64_t reference_fnv1a(const Counters& c) {
   return h;
 }
 
-constexpr TileEncoding kEncodings[] = {TileEncoding::kRaw, TileEncoding::kVarintZlib};
+constexpr TileEncoding kEncodings[] = {TileEncoding::kRaw, TileEncoding::kVarintZlib,
+                                       TileEncoding::kMedZlib};
+
+bool is_square(std::size_t cells) {
+  for (std::size_t e = 0; e * e <= cells; ++e) {
+    if (e * e == cells) return true;
+  }
+  return false;
+}
 
 // ---------------------------------------------------------------------------------------------
 // Round trips and sizes
 
-TEST(TileCodecTest, RoundTripsRandomCountersWithBothEncodings) {
+TEST(TileCodecTest, RoundTripsRandomCountersWithEveryEncoding) {
   for (const std::uint32_t seed : {1u, 20240611u, 4242424242u}) {
-    for (const std::size_t cells : {kCells, std::size_t{1}, std::size_t{0}, std::size_t{1000}}) {
+    for (const std::size_t cells :
+         {kCells, std::size_t{1}, std::size_t{0}, std::size_t{1000}, std::size_t{1024}}) {
       const Counters in = random_counters(cells, seed);
       for (const TileEncoding enc : kEncodings) {
+        if (enc == TileEncoding::kMedZlib && !is_square(cells)) continue;
         SCOPED_TRACE("seed " + std::to_string(seed) + ", cells " + std::to_string(cells) +
                      ", encoding " + std::to_string(static_cast<int>(enc)));
         const EncodedTile tile = encode_tile(in.hit, in.err, enc);
@@ -181,10 +191,11 @@ TEST(TileCodecTest, RoundTripsEveryZlibLevel) {
   const Counters in = random_counters(kCells, seed);
   for (int level = 0; level <= 9; ++level) {
     SCOPED_TRACE("seed " + std::to_string(seed) + ", level " + std::to_string(level));
-    const Counters out =
-        decode(encode_tile(in.hit, in.err, TileEncoding::kVarintZlib, level), kCells);
-    EXPECT_EQ(out.hit, in.hit);
-    EXPECT_EQ(out.err, in.err);
+    for (const TileEncoding enc : {TileEncoding::kVarintZlib, TileEncoding::kMedZlib}) {
+      const Counters out = decode(encode_tile(in.hit, in.err, enc, level), kCells);
+      EXPECT_EQ(out.hit, in.hit);
+      EXPECT_EQ(out.err, in.err);
+    }
   }
 }
 
@@ -209,9 +220,36 @@ TEST(TileCodecTest, RoundTripsMaxValueCounters) {
 TEST(TileCodecTest, AllZeroTileEncodesToUnder64Bytes) {
   const std::vector<std::uint32_t> zeros(kCells, 0);
   const EncodedTile tile = encode_tile(zeros, zeros);
-  EXPECT_EQ(tile.encoding, TileEncoding::kVarintZlib);
+  EXPECT_EQ(tile.encoding, TileEncoding::kMedZlib);
   EXPECT_LT(tile.payload.size(), 64u);
+  EXPECT_LT(encode_tile(zeros, zeros, TileEncoding::kVarintZlib).payload.size(), 64u);
   EXPECT_EQ(encode_tile(zeros, zeros, TileEncoding::kRaw).payload.size(), 8 * kCells);
+}
+
+TEST(TileCodecTest, MedPredictionShrinksSmoothTiles) {
+  // A wall of hits along a row and a free-space ramp of err counts: smooth, as real tiles are.
+  std::vector<std::uint32_t> hit(kCells, 0), err(kCells, 0);
+  for (std::size_t i = 0; i < kCells; ++i) {
+    const std::size_t x = i % 64, y = i / 64;
+    if (y == 40) hit[i] = 30;
+    if (y < 40) err[i] = static_cast<std::uint32_t>(200 + 3 * x + y);
+  }
+  const auto med = encode_tile(hit, err, TileEncoding::kMedZlib);
+  const auto varint = encode_tile(hit, err, TileEncoding::kVarintZlib);
+  EXPECT_LT(med.payload.size(), varint.payload.size());
+  const Counters out = decode(med, kCells);
+  EXPECT_EQ(out.hit, hit);
+  EXPECT_EQ(out.err, err);
+}
+
+TEST(TileCodecTest, MedNeedsSquareTiles) {
+  const std::vector<std::uint32_t> five(5, 1);
+  EXPECT_THROW(encode_tile(five, five, TileEncoding::kMedZlib), std::invalid_argument);
+  const std::vector<std::uint32_t> four(4, 1);
+  const auto tile = encode_tile(four, four, TileEncoding::kMedZlib);
+  EXPECT_EQ(decode_error(TileEncoding::kMedZlib, tile.payload, 5), "5 cells is not a square tile");
+  EXPECT_EQ(decode_error(TileEncoding::kMedZlib, tile.payload, 9),
+            "varint stream ends after 8 of 9 hit cells");
 }
 
 TEST(TileCodecTest, RawIsLittleEndianHitThenErr) {
@@ -226,7 +264,7 @@ TEST(TileCodecTest, RawIsLittleEndianHitThenErr) {
 TEST(TileCodecTest, VarintZlibIsDeflatedLeb128HitThenErrPerCell) {
   const std::vector<std::uint32_t> hit{0, 300, 0xFFFFFFFFu};
   const std::vector<std::uint32_t> err{127, 128, 1};
-  const EncodedTile tile = encode_tile(hit, err);
+  const EncodedTile tile = encode_tile(hit, err, TileEncoding::kVarintZlib);
   const std::vector<std::uint8_t> expected{
       0x00, 0x7F,                          // cell 0: hit 0, err 127
       0xAC, 0x02, 0x80, 0x01,              // cell 1: hit 300, err 128
@@ -325,7 +363,7 @@ TEST(TileCodecTest, OverlongVarintIsRejected) {
 TEST(TileCodecTest, ShortVarintStreamIsRejected) {
   const Counters in = random_counters(4000, 11);
   SCOPED_TRACE("seed 11");
-  EXPECT_EQ(decode_error(TileEncoding::kVarintZlib, encode_tile(in.hit, in.err).payload, kCells),
+  EXPECT_EQ(decode_error(TileEncoding::kVarintZlib, encode_tile(in.hit, in.err, TileEncoding::kVarintZlib).payload, kCells),
             "varint stream ends after 4000 of 4096 cells");
   // Ends inside cell 1: its hit is complete, its err varint is cut after a continuation byte.
   const std::vector<std::uint8_t> cut{0x05, 0x06, 0x07, 0x80};
@@ -339,13 +377,13 @@ TEST(TileCodecTest, TrailingDataIsRejected) {
   // After the last cell, inside the zlib stream.
   const Counters in = random_counters(kCells + 1, 12);
   SCOPED_TRACE("seed 12");
-  const std::vector<std::uint8_t> extra_cell = encode_tile(in.hit, in.err).payload;
+  const std::vector<std::uint8_t> extra_cell = encode_tile(in.hit, in.err, TileEncoding::kVarintZlib).payload;
   const std::string what = decode_error(TileEncoding::kVarintZlib, extra_cell, kCells);
   EXPECT_TRUE(starts_with(what, "trailing bytes: ")) << what;
   EXPECT_EQ(decode_error(TileEncoding::kVarintZlib, deflate_bytes({0x01, 0x02, 0x03}), 1),
             "trailing bytes: 1 after the last of 1 cells");
   // After the end of the zlib stream.
-  std::vector<std::uint8_t> appended = encode_tile(in.hit, in.err).payload;
+  std::vector<std::uint8_t> appended = encode_tile(in.hit, in.err, TileEncoding::kVarintZlib).payload;
   appended.push_back(0x00);
   appended.push_back(0x00);
   EXPECT_EQ(decode_error(TileEncoding::kVarintZlib, appended, kCells + 1),

@@ -8,7 +8,7 @@
 // SLAM needed to stay on track on the benchmark logs (docs/slam.md has the measurements):
 // constant-velocity prediction, every motion hypothesis in the initial population, a wider
 // initial spread, bilinear sub-cell fitness, a deterministic polish of the ES result, a motion
-// prior that breaks ties in corridors (with odometry), inserting scans only after the robot moved,
+// prior that breaks ties in corridors, inserting scans only after the robot moved,
 // and loop closure over a pose graph of the inserted scans.
 
 #include <cstdint>
@@ -71,10 +71,6 @@ struct SlamConfig {
   /// the map does not constrain (corridors), wide enough not to fight a clear match.
   double prior_sigma_xy = 0.3;          ///< metres
   double prior_sigma_theta_deg = 10.0;  ///< degrees
-  /// The prior is applied with odometry only by default: laser only, its hypotheses come from
-  /// the constant-velocity guess, and on fr079 it pulled the search away from the right match
-  /// at sharp reversals (docs/slam.md).
-  bool prior_without_odometry = false;
   /// Write a scan into the map only once the pose moved this far from the last inserted one
   /// (either threshold; 0 and 0 = every scan, as in the paper).
   double insert_min_travel = 0.1;    ///< metres
@@ -137,8 +133,7 @@ class Slam {
   Pose2 predict(const LaserScan& scan, std::vector<Pose2>* alternatives) const;
   FitnessOptions fitness_options(bool interpolate) const;
   bool use_prior() const {
-    return config_.prior_sigma_xy > 0.0 && config_.prior_sigma_theta_deg > 0.0 &&
-           (config_.use_odometry || config_.prior_without_odometry);
+    return config_.prior_sigma_xy > 0.0 && config_.prior_sigma_theta_deg > 0.0;
   }
   float prior(const Pose2& p, const std::vector<Pose2>& hypotheses) const;
   EsResult search(const ScanPoints& points, const Pose2& centre,
