@@ -99,6 +99,10 @@ TEST(WriterReaderTest, AllFourTopicsRoundTripFieldByField) {
   ASSERT_TRUE(pose_writer.wait_for_matched(1, milliseconds(5000)));
   ASSERT_TRUE(scan_writer.wait_for_matched(1, milliseconds(5000)));
   ASSERT_TRUE(tile_reader.wait_for_matched(1, milliseconds(5000)));
+  // Discovery is not symmetric in time: the writer may see the reader a little later.
+  ASSERT_TRUE(tile_writer.wait_for_matched(1, milliseconds(5000)));
+  ASSERT_TRUE(meta_reader.wait_for_matched(1, milliseconds(5000)));
+  ASSERT_TRUE(meta_writer.wait_for_matched(1, milliseconds(5000)));
   EXPECT_EQ(tile_writer.matched_readers(), 1);
   EXPECT_EQ(meta_reader.matched_writers(), 1);
 
