@@ -131,7 +131,8 @@ float Slam::prior(const Pose2& p, const std::vector<Pose2>& hypotheses) const {
 }
 
 EsResult Slam::search(const ScanPoints& points, const Pose2& centre,
-                      const std::vector<Pose2>& hypotheses) {
+                      const std::vector<Pose2>& hypotheses,
+                      const std::vector<Pose2>& prior_hypotheses) {
   std::vector<Correction> extra;
   for (std::size_t h = 1; h < hypotheses.size(); ++h) {
     extra.push_back(correction_between(centre, hypotheses[h]));
@@ -142,7 +143,7 @@ EsResult Slam::search(const ScanPoints& points, const Pose2& centre,
                               fitness_options(config_.interpolation == Interpolation::kAll));
   if (!use_prior()) return es_.search(eval, centre, initial, rng_);
   EsResult r =
-      es_.search_with([&](const Pose2& p) { return eval.fitness(p) * prior(p, hypotheses); },
+      es_.search_with([&](const Pose2& p) { return eval.fitness(p) * prior(p, prior_hypotheses); },
                       centre, initial, rng_);
   r.value = eval.evaluate(r.pose);
   return r;
@@ -180,8 +181,19 @@ SlamStep Slam::process(const LaserScan& scan) {
       hypotheses.insert(hypotheses.end(), alternatives.begin(), alternatives.end());
     }
     const auto t_search = Clock::now();
-    EsResult r = search(points, step.predicted, hypotheses);
-    if (config_.refine) r = polish(points, r.pose, hypotheses);
+    // The prior's hypotheses: laser only, "the robot stopped" (the previous pose) stays in the
+    // population but gets no prior weight while another hypothesis says it moves: in a
+    // featureless corridor it would otherwise hold the robot back.
+    std::vector<Pose2> prior_hypotheses;
+    const Pose2& last = trajectory_.back().pose;
+    for (const Pose2& h : hypotheses) {
+      if (config_.prior_on_stop || config_.use_odometry || !(h == last)) {
+        prior_hypotheses.push_back(h);
+      }
+    }
+    if (prior_hypotheses.empty()) prior_hypotheses = hypotheses;
+    EsResult r = search(points, step.predicted, hypotheses, prior_hypotheses);
+    if (config_.refine) r = polish(points, r.pose, prior_hypotheses);
     step.pose = r.pose;
     step.fitness = r.value;
     step.search_ms = ms_since(t_search);

@@ -64,6 +64,8 @@ void add_slam_params(ParamTable& t, SlamConfig* s, CarmenReaderOptions* r) {
   t.add_double("prior_sigma_xy", &s->prior_sigma_xy, "motion prior width, metres (0 = no prior)");
   t.add_double("prior_sigma_theta", &s->prior_sigma_theta_deg,
                "motion prior width, degrees (0 = no prior)");
+  t.add_switch("prior_on_stop", &s->prior_on_stop,
+               "laser only: the prior also favours the previous pose (a stop)");
   t.add_double("insert_min_travel", &s->insert_min_travel,
                "insert a scan once the robot moved this far since the last one, metres (0 and "
                "insert_min_turn 0 = every scan)");

@@ -71,6 +71,9 @@ struct SlamConfig {
   /// the map does not constrain (corridors), wide enough not to fight a clear match.
   double prior_sigma_xy = 0.3;          ///< metres
   double prior_sigma_theta_deg = 10.0;  ///< degrees
+  /// Laser only: the prior also favours the previous pose (a stop). Off: the previous pose is
+  /// only in the initial population while another hypothesis says the robot moves.
+  bool prior_on_stop = false;
   /// Write a scan into the map only once the pose moved this far from the last inserted one
   /// (either threshold; 0 and 0 = every scan, as in the paper).
   double insert_min_travel = 0.1;    ///< metres
@@ -137,7 +140,7 @@ class Slam {
   }
   float prior(const Pose2& p, const std::vector<Pose2>& hypotheses) const;
   EsResult search(const ScanPoints& points, const Pose2& centre,
-                  const std::vector<Pose2>& hypotheses);
+                  const std::vector<Pose2>& hypotheses, const std::vector<Pose2>& prior_hypotheses);
   EsResult polish(const ScanPoints& points, const Pose2& start,
                   const std::vector<Pose2>& hypotheses) const;
   /// Adds the scan just inserted as a key scan (graph node + edge to the previous one) and
