@@ -3,7 +3,7 @@
 # Needs root (or sudo) the first time; does nothing when everything is installed.
 set -euo pipefail
 packages=(
-  build-essential cmake pkg-config
+  build-essential cmake pkg-config python3
   libeigen3-dev libopencv-dev zlib1g-dev
   libcli11-dev libspdlog-dev libyaml-cpp-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
