@@ -1,7 +1,8 @@
-// esfleet-leader: maps with the (mu+1)-ES SLAM and shares the map over DDS. With --offline it
-// only runs a recorded log through the SLAM and writes the map, trajectory and statistics;
-// otherwise it also publishes the changed map tiles, the map summary and its pose while it maps,
-// and keeps serving the map after the log has ended.
+// esfleet-leader: maps with the (mu+1)-ES SLAM and shares the map over DDS. The scans come from a
+// recorded log (--log) or from one robot's DDS scan topic (--scan-topic); both go through the
+// same loop (scan_source.hpp). With --offline it only runs a log through the SLAM and writes the
+// map, trajectory and statistics; otherwise it also publishes the changed map tiles, the map
+// summary and its pose while it maps, and keeps serving the map after the input has ended.
 
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
@@ -9,16 +10,20 @@
 #include <atomic>
 #include <chrono>
 #include <csignal>
+#include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
 #include <thread>
+#include <vector>
 
 #include "app/param_table.hpp"
 #include "app/slam_params.hpp"
 #include "app/slam_run.hpp"
-#include "esfleet/core/carmen_reader.hpp"
 #include "esfleet/core/slam.hpp"
 #include "esfleet/dds/node.hpp"
 #include "map_publisher.hpp"
+#include "scan_source.hpp"
 
 namespace {
 
@@ -31,11 +36,46 @@ struct OnlineOptions {
   std::string map_id = "map";
   std::uint32_t epoch = 0;  ///< 0 = the start time in seconds, so a restart makes a new epoch
   std::string robot_id = "leader";
-  double rate = 0.0;            ///< 0 = as fast as possible, 1 = recorded speed
-  double publish_period = 1.0;  ///< seconds of log time between publishes
-  double linger = -1.0;         ///< seconds to keep serving after the log; < 0 = until stopped
+  double rate = 0.0;            ///< --log: 0 = as fast as possible, 1 = recorded speed
+  double idle_exit = 0.0;       ///< --scan-topic: end after this many idle seconds; 0 = never
+  double publish_period = 1.0;  ///< seconds of scan time between publishes
+  double linger = -1.0;         ///< seconds to keep serving after the input; < 0 = until stopped
   std::string encoding = "med";
 };
+
+/// Progress line every this many scans when the total is not known (--scan-topic).
+constexpr std::size_t kTopicProgressEvery = 100;
+
+/// stats.json "dds": what map sharing sent, against republishing the whole map; logs a summary.
+nlohmann::json dds_stats(const esfleet::leader::PublishStats& p, const OnlineOptions& o,
+                         double input_s) {
+  const std::uint64_t sent_bytes = p.tile_bytes + p.meta_bytes + p.pose_bytes;
+  const auto sent = static_cast<double>(sent_bytes);
+  const auto full = static_cast<double>(p.full_map_bytes);
+  const double per_s = input_s > 0 ? sent / input_s : 0.0;
+  const double ratio = sent > 0 ? full / sent : 0.0;
+  spdlog::info(
+      "published {} tiles, {:.1f} kB in all ({:.0f} B per log second); the whole "
+      "map at every publish would be {:.1f} kB ({:.1f}x more)",
+      p.tiles, sent / 1e3, per_s, full / 1e3, ratio);
+  return {
+      {"domain", o.domain},
+      {"map_id", o.map_id},
+      {"epoch", o.epoch},
+      {"publish_period_s", o.publish_period},
+      {"publishes", p.publishes},
+      {"tiles_published", p.tiles},
+      {"tile_bytes", p.tile_bytes},
+      {"meta_bytes", p.meta_bytes},
+      {"pose_bytes", p.pose_bytes},
+      {"bytes_total", sent_bytes},
+      {"log_duration_s", input_s},
+      {"bytes_per_log_s", per_s},
+      {"full_map_bytes", p.full_map_bytes},
+      {"full_map_over_tiles", ratio},
+      {"write_failures", p.write_failures},
+  };
+}
 
 }  // namespace
 
@@ -48,17 +88,25 @@ int main(int argc, char** argv) {
   CLI::App cli{
       "esfleet-leader: 2D laser SLAM with the (mu+1)-Evolution Strategy of Toda & Kubota, "
       "sharing its map over DDS.\n"
-      "Maps a CARMEN log and publishes changed map tiles, the map summary and its pose (topics "
+      "Maps a CARMEN log (--log) or the scans a robot publishes on esfleet/robots/scan "
+      "(--scan-topic) and publishes changed map tiles, the map summary and its pose (topics "
       "esfleet/map/tiles, esfleet/map/meta, esfleet/robots/pose); late joiners get the whole "
-      "map. With --offline it runs without DDS. Both write DIR/map.pgm, map.yaml (ROS "
+      "map. With --offline it maps a log without DDS. All write DIR/map.pgm, map.yaml (ROS "
       "map_server), map.png (map with trajectory), trajectory.txt (t x y theta per scan), "
       "map.digest (per-tile counter digests) and stats.json."};
-  std::string log_path, out_dir = "out";
+  std::string log_path, scan_robot, out_dir = "out";
   bool offline = false;
   std::size_t max_scans = 0;
   bool paper = false;
   OnlineOptions o;
-  cli.add_option("--log", log_path, "CARMEN log (.log/.clf, plain or .gz)")->required();
+  cli.add_option("--log", log_path, "CARMEN log (.log/.clf, plain or .gz)");
+  cli.add_option("--scan-topic", scan_robot,
+                 "map the scans robot ID publishes on esfleet/robots/scan (e.g. from "
+                 "esfleet-replay) instead of a log");
+  cli.add_option("--idle-exit", o.idle_exit,
+                 "--scan-topic: end the map once no scan came for S seconds after the first "
+                 "(0 = only on Ctrl-C)")
+      ->capture_default_str();
   cli.add_option("--out", out_dir, "output directory")->capture_default_str();
   cli.add_flag("--offline", offline, "run the log through the SLAM without DDS");
   cli.add_option("--max-scans", max_scans, "stop after N scans (0 = all)")->capture_default_str();
@@ -74,13 +122,13 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   dds->add_option("--robot-id", o.robot_id, "id on the pose topic")->capture_default_str();
   dds->add_option("--rate", o.rate,
-                  "replay speed: 0 = as fast as possible, 1 = recorded speed, 2 = twice, ...")
+                  "--log replay speed: 0 = as fast as possible, 1 = recorded speed, 2 = twice")
       ->capture_default_str();
   dds->add_option("--publish-period", o.publish_period,
-                  "seconds of log time between tile publishes (at --rate 1: wall seconds)")
+                  "seconds of scan time between tile publishes (at --rate 1: wall seconds)")
       ->capture_default_str();
   dds->add_option("--linger", o.linger,
-                  "after the log: keep serving the map this many seconds (< 0: until Ctrl-C)")
+                  "after the input: keep serving the map this many seconds (< 0: until Ctrl-C)")
       ->capture_default_str();
   dds->add_option("--encoding", o.encoding,
                   "tile payload encoding: med = predicted residuals + zlib (smallest), varint = "
@@ -101,6 +149,19 @@ int main(int argc, char** argv) {
     config.validate();
     if (!(o.rate >= 0.0)) throw std::invalid_argument("--rate must be >= 0");
     if (!(o.publish_period > 0.0)) throw std::invalid_argument("--publish-period must be > 0");
+    if (log_path.empty() == scan_robot.empty()) {
+      throw std::invalid_argument("give exactly one of --log FILE and --scan-topic ROBOT_ID");
+    }
+    if (!scan_robot.empty() && offline) {
+      throw std::invalid_argument("--offline maps a --log only (--scan-topic needs DDS)");
+    }
+    if (!scan_robot.empty() && o.rate > 0.0) {
+      throw std::invalid_argument("--rate paces a --log; scans from --scan-topic come as sent");
+    }
+    if (!(o.idle_exit >= 0.0)) throw std::invalid_argument("--idle-exit must be >= 0");
+    if (o.idle_exit > 0.0 && scan_robot.empty()) {
+      throw std::invalid_argument("--idle-exit needs --scan-topic");
+    }
   } catch (const std::exception& e) {
     spdlog::error("{}", e.what());
     return 2;
@@ -109,32 +170,26 @@ int main(int argc, char** argv) {
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
 
-  std::vector<LaserScan> scans;
-  try {
-    CarmenReader reader(log_path, reader_options);
-    while (auto scan = reader.next_scan()) {
-      scans.push_back(std::move(*scan));
-      if (max_scans > 0 && scans.size() >= max_scans) break;
-      if (g_stop.load()) break;
+  // Destroyed in reverse: the scan source (its reader) and the publisher before the node.
+  std::unique_ptr<dds::Node> node;
+  std::unique_ptr<leader::MapPublisher> publisher;
+  std::unique_ptr<leader::ScanSource> source;
+  leader::TopicScanSource* topic = nullptr;
+  if (!log_path.empty()) {
+    try {
+      source = std::make_unique<leader::LogScanSource>(
+          leader::read_log(log_path, reader_options, max_scans, config.use_odometry, g_stop),
+          o.rate);
+    } catch (const std::exception& e) {
+      spdlog::error("{}", e.what());
+      return 2;
     }
-    if (reader.saw_corrected_poses() && config.use_odometry) {
-      spdlog::warn(
-          "{} is a GMapping-corrected log: its odometry fields are corrected poses, so "
-          "--odometry on makes the result meaningless. Run it laser-only.",
-          log_path);
-    }
-    if (scans.empty()) throw LogError(log_path, 0, "no laser scans (FLASER/ROBOTLASER1) in file");
-  } catch (const std::exception& e) {
-    spdlog::error("{}", e.what());
-    return 2;
+    spdlog::info("{}: {} scans", log_path, source->total());
   }
-  spdlog::info("{}: {} scans", log_path, scans.size());
   for (const auto& [name, value] : params.values()) spdlog::info("  {} = {}", name, value);
   nlohmann::json params_json;
   for (const auto& [name, value] : params.values()) params_json[name] = value;
 
-  std::unique_ptr<dds::Node> node;
-  std::unique_ptr<leader::MapPublisher> publisher;
   if (!offline) {
     if (o.epoch == 0) {
       o.epoch = static_cast<std::uint32_t>(dds::realtime_ns() / 1'000'000'000);
@@ -146,79 +201,78 @@ int main(int argc, char** argv) {
           o.encoding == "raw"      ? TileEncoding::kRaw
           : o.encoding == "varint" ? TileEncoding::kVarintZlib
                                    : TileEncoding::kMedZlib);
+      if (!scan_robot.empty()) {
+        auto t = std::make_unique<leader::TopicScanSource>(*node, scan_robot, o.idle_exit);
+        topic = t.get();
+        source = std::move(t);
+      }
     } catch (const std::exception& e) {
       spdlog::error("DDS: {}", e.what());
       return 2;
     }
     spdlog::info("sharing map '{}' epoch {} on DDS domain {}{}", o.map_id, o.epoch, o.domain,
                  o.profile.empty() ? "" : " with profile " + o.profile);
+    if (topic) {
+      spdlog::info("mapping the scans of robot '{}' from {}; {}", scan_robot, dds::kScanTopic,
+                   o.idle_exit > 0 ? fmt::format("ending {} s after the last one", o.idle_exit)
+                                   : std::string("until stopped (Ctrl-C)"));
+    }
   }
 
   Slam slam(config);
-  const std::size_t every = std::max<std::size_t>(1, scans.size() / 20);
-  const double t0_log = scans.front().stamp;
-  const auto t0_wall = Clock::now();
-  double last_publish = -1e300;
+  const std::size_t every =
+      source->total() > 0 ? std::max<std::size_t>(1, source->total() / 20) : kTopicProgressEvery;
+  std::optional<double> first_stamp;
+  double last_stamp = 0.0, last_publish = -1e300;
   const std::string params_dump = params_json.dump();
   auto publish = [&](bool complete, float fitness) {
     publisher->publish(slam.map(), slam.trajectory().back(), fitness, complete,
                        static_cast<std::uint32_t>(slam.scans_processed()), params_dump);
   };
-  const auto stats = app::run_slam(
-      slam, scans, &g_stop, [&](std::size_t done, std::size_t total, const SlamStep& step) {
-        const LaserScan& scan = scans[done - 1];
+  const auto stats = leader::run_slam(
+      slam, *source, max_scans, g_stop,
+      [&](const LaserScan& scan, const SlamStep& step, std::size_t done) {
+        if (!first_stamp) first_stamp = scan.stamp;
+        last_stamp = scan.stamp;
         if (publisher && scan.stamp - last_publish >= o.publish_period) {
           publish(false, step.fitness.fitness);
           last_publish = scan.stamp;
         }
-        if (done % every == 0 || done == total) {
-          spdlog::info("scan {}/{}  pose ({:.2f}, {:.2f}, {:.1f} deg)  fitness {:.1f}  tiles {}",
-                       done, total, step.pose.x, step.pose.y, rad_to_deg(step.pose.theta),
-                       step.fitness.fitness, slam.map().tile_count());
-        }
-        if (o.rate > 0.0 && done < total) {
-          // Recorded speed: the next scan is due at its log time (scaled) after the start.
-          const double due = (scans[done].stamp - t0_log) / o.rate;
-          std::this_thread::sleep_until(t0_wall + std::chrono::duration<double>(due));
+        if (done % every == 0 || done == source->total()) {
+          spdlog::info("scan {}{}  pose ({:.2f}, {:.2f}, {:.1f} deg)  fitness {:.1f}  tiles {}",
+                       done, source->total() > 0 ? fmt::format("/{}", source->total()) : "",
+                       step.pose.x, step.pose.y, rad_to_deg(step.pose.theta), step.fitness.fitness,
+                       slam.map().tile_count());
         }
       });
+  if (stats.scans == 0) {
+    spdlog::warn("no scan received: nothing to save");
+    return stats.interrupted ? 130 : 1;
+  }
   if (stats.interrupted) {
     spdlog::warn("interrupted after {} scans: saving what we have", stats.scans);
   }
 
   nlohmann::json extra;
-  extra["log"] = log_path;
+  if (topic) {
+    const leader::TopicScanStats t = topic->stats();
+    extra["scan_topic"] = {{"robot_id", scan_robot},      {"received", t.received},
+                           {"malformed", t.malformed},    {"other_robots", t.other_robots},
+                           {"seq_gaps", t.seq_gaps},      {"seq_restarts", t.seq_restarts},
+                           {"max_queue", t.max_queue},    {"idle_exit_s", o.idle_exit},
+                           {"ended_idle", topic->ended()}};
+    spdlog::info(
+        "scan topic: {} scans of '{}' received, {} malformed, {} missing (seq), "
+        "{} of other robots; at most {} waiting for the SLAM",
+        t.received, scan_robot, t.malformed, t.seq_gaps, t.other_robots, t.max_queue);
+  } else {
+    extra["log"] = log_path;
+  }
   extra["paper_mode"] = paper;
   extra["parameters"] = params_json;
   if (publisher) {
     publish(!stats.interrupted, 0.0f);
-    const auto& p = publisher->stats();
-    const double log_s = scans[stats.scans > 0 ? stats.scans - 1 : 0].stamp - t0_log;
-    const std::uint64_t sent_bytes = p.tile_bytes + p.meta_bytes + p.pose_bytes;
-    const auto sent = static_cast<double>(sent_bytes);
-    const auto full = static_cast<double>(p.full_map_bytes);
-    extra["dds"] = {
-        {"domain", o.domain},
-        {"map_id", o.map_id},
-        {"epoch", o.epoch},
-        {"publish_period_s", o.publish_period},
-        {"publishes", p.publishes},
-        {"tiles_published", p.tiles},
-        {"tile_bytes", p.tile_bytes},
-        {"meta_bytes", p.meta_bytes},
-        {"pose_bytes", p.pose_bytes},
-        {"bytes_total", sent_bytes},
-        {"log_duration_s", log_s},
-        {"bytes_per_log_s", log_s > 0 ? sent / log_s : 0.0},
-        {"full_map_bytes", p.full_map_bytes},
-        {"full_map_over_tiles", sent > 0 ? full / sent : 0.0},
-        {"write_failures", p.write_failures},
-    };
-    spdlog::info(
-        "published {} tiles, {:.1f} kB in all ({:.0f} B per log second); the whole "
-        "map at every publish would be {:.1f} kB ({:.1f}x more)",
-        p.tiles, sent / 1e3, extra["dds"]["bytes_per_log_s"].get<double>(), full / 1e3,
-        extra["dds"]["full_map_over_tiles"].get<double>());
+    extra["dds"] = dds_stats(publisher->stats(), o, first_stamp ? last_stamp - *first_stamp : 0);
   }
   try {
     app::write_slam_outputs(out_dir, slam, stats, extra);
@@ -231,8 +285,11 @@ int main(int argc, char** argv) {
                stats.scans, stats.wall_s, ms.median, ms.p95, ms.max, out_dir);
 
   if (publisher && !stats.interrupted) {
+    const std::string why = !topic           ? std::string("log ended")
+                            : topic->ended() ? fmt::format("no scan for {} s", o.idle_exit)
+                                             : fmt::format("{} scans mapped", stats.scans);
     spdlog::info(
-        "log ended: map complete; serving it {}",
+        "{}: map complete; serving it {}", why,
         o.linger < 0 ? std::string("until stopped (Ctrl-C)") : fmt::format("for {} s", o.linger));
     const auto until = Clock::now() + std::chrono::duration<double>(o.linger < 0 ? 1e9 : o.linger);
     while (!g_stop.load() && Clock::now() < until) {

@@ -1,0 +1,169 @@
+#include "scan_source.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <stdexcept>
+#include <thread>
+#include <utility>
+
+#include "esfleet/dds/map_convert.hpp"
+
+namespace esfleet::leader {
+
+namespace {
+/// How often blocked waits look at the stop flag.
+constexpr std::chrono::milliseconds kPoll{100};
+}  // namespace
+
+std::vector<LaserScan> read_log(const std::string& path, const CarmenReaderOptions& options,
+                                std::size_t max_scans, bool use_odometry,
+                                const std::atomic<bool>& stop) {
+  std::vector<LaserScan> scans;
+  CarmenReader reader(path, options);
+  while (auto scan = reader.next_scan()) {
+    scans.push_back(std::move(*scan));
+    if (max_scans > 0 && scans.size() >= max_scans) break;
+    if (stop.load()) break;
+  }
+  if (reader.saw_corrected_poses() && use_odometry) {
+    spdlog::warn(
+        "{} is a GMapping-corrected log: its odometry fields are corrected poses, so "
+        "--odometry on makes the result meaningless. Run it laser-only.",
+        path);
+  }
+  if (scans.empty()) throw LogError(path, 0, "no laser scans (FLASER/ROBOTLASER1) in file");
+  return scans;
+}
+
+LogScanSource::LogScanSource(std::vector<LaserScan> scans, double rate)
+    : scans_(std::move(scans)), rate_(rate) {}
+
+std::optional<LaserScan> LogScanSource::next(const std::atomic<bool>& stop) {
+  if (next_ >= scans_.size() || stop.load()) return std::nullopt;
+  if (next_ == 0) start_ = std::chrono::steady_clock::now();
+  if (rate_ > 0.0) {
+    const double due_s = (scans_[next_].stamp - scans_.front().stamp) / rate_;
+    const auto due = start_ + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                  std::chrono::duration<double>(due_s));
+    while (std::chrono::steady_clock::now() < due) {
+      if (stop.load()) return std::nullopt;
+      std::this_thread::sleep_until(std::min(due, std::chrono::steady_clock::now() + kPoll));
+    }
+  }
+  return scans_[next_++];
+}
+
+TopicScanSource::TopicScanSource(dds::Node& node, std::string robot_id, double idle_exit_s)
+    : robot_id_(std::move(robot_id)),
+      idle_exit_s_(idle_exit_s),
+      reader_(node, [this](const msg::LaserScanMsg& m, const dds::SampleMeta&) { on_message(m); }) {
+}
+
+void TopicScanSource::on_message(const msg::LaserScanMsg& m) {
+  std::lock_guard lock(mutex_);
+  if (m.robot_id() != robot_id_) {
+    ++other_robots_;
+    return;
+  }
+  queue_.push_back(m);
+  ++received_;
+  max_queue_ = std::max(max_queue_, queue_.size());
+  last_arrival_ = Clock::now();
+  arrived_.notify_one();
+}
+
+std::optional<LaserScan> TopicScanSource::next(const std::atomic<bool>& stop) {
+  while (!stop.load()) {
+    std::unique_lock lock(mutex_);
+    arrived_.wait_for(lock, kPoll, [this] { return !queue_.empty(); });
+    if (!queue_.empty()) {
+      const msg::LaserScanMsg m = std::move(queue_.front());
+      queue_.pop_front();
+      lock.unlock();
+      if (auto scan = convert(m)) return scan;
+      continue;
+    }
+    if (idle_exit_s_ > 0.0 && last_arrival_ &&
+        Clock::now() - *last_arrival_ >= std::chrono::duration<double>(idle_exit_s_)) {
+      idle_ = true;
+      return std::nullopt;
+    }
+  }
+  return std::nullopt;
+}
+
+std::optional<LaserScan> TopicScanSource::convert(const msg::LaserScanMsg& m) {
+  // Seq numbers only diagnose: a gap means the transport lost scans, a step back a restarted
+  // publisher. Malformed scans still count, so that their own seq is not reported as a gap.
+  if (last_seq_ && m.seq() <= *last_seq_) {
+    ++seq_restarts_;
+    spdlog::warn("scan seq went back from {} to {}: the publisher of '{}' restarted?", *last_seq_,
+                 m.seq(), robot_id_);
+  } else if (last_seq_ && m.seq() > *last_seq_ + 1) {
+    const std::uint32_t missing = m.seq() - *last_seq_ - 1;
+    seq_gaps_ += missing;
+    spdlog::warn("{} scans of '{}' missing before seq {}", missing, robot_id_, m.seq());
+  }
+  last_seq_ = m.seq();
+  try {
+    return dds::scan_from_msg(m);
+  } catch (const std::invalid_argument& e) {
+    if (malformed_++ == 0) {
+      spdlog::warn("dropping malformed scan seq {} of '{}': {} (further ones only counted)",
+                   m.seq(), robot_id_, e.what());
+    }
+    return std::nullopt;
+  }
+}
+
+TopicScanStats TopicScanSource::stats() const {
+  TopicScanStats s;
+  s.malformed = malformed_;
+  s.seq_gaps = seq_gaps_;
+  s.seq_restarts = seq_restarts_;
+  std::lock_guard lock(mutex_);
+  s.received = received_;
+  s.other_robots = other_robots_;
+  s.max_queue = max_queue_;
+  return s;
+}
+
+app::SlamRunStats run_slam(Slam& slam, ScanSource& source, std::size_t max_scans,
+                           const std::atomic<bool>& stop, const StepCallback& on_step) {
+  using Clock = std::chrono::steady_clock;
+  app::SlamRunStats stats;
+  stats.ms_per_scan.reserve(source.total());
+  // Wall time from the first scan to the last one processed: not the wait for the first scan
+  // on the topic, nor the idle time before the end.
+  std::optional<Clock::time_point> first;
+  Clock::time_point last;
+  while (max_scans == 0 || stats.scans < max_scans) {
+    const std::optional<LaserScan> scan = source.next(stop);
+    if (!scan) {
+      stats.interrupted = !source.ended();
+      break;
+    }
+    const auto t0 = Clock::now();
+    if (!first) first = t0;
+    const SlamStep step = slam.process(*scan);
+    const auto t1 = Clock::now();
+    // The same bookkeeping as app::run_slam, so stats.json means the same for every source.
+    stats.ms_per_scan.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
+    ++stats.scans;
+    stats.inserted += step.inserted ? 1 : 0;
+    stats.search_ms.push_back(step.search_ms);
+    if (step.inserted) stats.update_ms.push_back(step.update_ms);
+    if (stats.scans > 1) {
+      const float a = step.fitness.agreement();
+      stats.agreement.push_back(a);
+      if (a < 0.5f) ++stats.weak_matches;
+    }
+    if (on_step) on_step(*scan, step, stats.scans);
+    last = Clock::now();
+  }
+  if (first) stats.wall_s = std::chrono::duration<double>(last - *first).count();
+  return stats;
+}
+
+}  // namespace esfleet::leader

@@ -1,0 +1,126 @@
+#pragma once
+// Where the leader's scans come from, and the one loop that runs them through the SLAM.
+//
+// A ScanSource hands out scans in order on the application thread: LogScanSource from a
+// recorded log (optionally paced at the recorded speed), TopicScanSource from the DDS scan topic
+// of one robot. TopicScanSource's DDS callback only appends the received message to a locked
+// queue; conversion and everything that touches the SLAM happen on the thread calling next()
+// (docs/style.md rule 4).
+
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "app/slam_run.hpp"
+#include "esfleet/core/carmen_reader.hpp"
+#include "esfleet/core/laser_scan.hpp"
+#include "esfleet/core/slam.hpp"
+#include "esfleet/dds/reader.hpp"
+
+namespace esfleet::leader {
+
+class ScanSource {
+ public:
+  virtual ~ScanSource() = default;
+  /// The next scan, blocking until it is due (log) or arrives (topic); std::nullopt once the
+  /// source has ended or `stop` is set.
+  virtual std::optional<LaserScan> next(const std::atomic<bool>& stop) = 0;
+  /// True once next() returned std::nullopt because the source ran out by itself (end of the
+  /// log, --idle-exit), not because of `stop`.
+  virtual bool ended() const = 0;
+  /// How many scans the source holds in all; 0 = not known in advance.
+  virtual std::size_t total() const { return 0; }
+};
+
+/// The scans of a log in file order: the first max_scans if > 0, fewer if `stop` is set while
+/// reading. Warns when odometry is used with a GMapping-corrected log. Throws LogError naming
+/// file and line, also for a log without scans.
+std::vector<LaserScan> read_log(const std::string& path, const CarmenReaderOptions& options,
+                                std::size_t max_scans, bool use_odometry,
+                                const std::atomic<bool>& stop);
+
+/// The scans of a log read beforehand. With rate > 0, scan i is due (stamp_i - stamp_0) / rate
+/// seconds after the first call of next() (1 = recorded speed); with 0, as fast as asked.
+class LogScanSource : public ScanSource {
+ public:
+  LogScanSource(std::vector<LaserScan> scans, double rate);
+  std::optional<LaserScan> next(const std::atomic<bool>& stop) override;
+  bool ended() const override { return next_ >= scans_.size(); }
+  std::size_t total() const override { return scans_.size(); }
+
+ private:
+  std::vector<LaserScan> scans_;
+  double rate_;
+  std::size_t next_ = 0;
+  std::chrono::steady_clock::time_point start_;
+};
+
+/// What a TopicScanSource saw.
+struct TopicScanStats {
+  std::uint64_t received = 0;      ///< messages of our robot (malformed ones included)
+  std::uint64_t malformed = 0;     ///< dropped: scan_from_msg refused them
+  std::uint64_t other_robots = 0;  ///< messages of other robot ids, ignored
+  std::uint64_t seq_gaps = 0;      ///< scans missing according to the seq numbers
+  std::uint64_t seq_restarts = 0;  ///< seq went backwards (the publisher restarted)
+  std::size_t max_queue = 0;       ///< most scans waiting for the SLAM at once
+};
+
+/// The scans that robot `robot_id` publishes on the scan topic (dds::kScanTopic), in arrival
+/// order. next() ends (std::nullopt) when `stop` is set or, with idle_exit_s > 0, once at least
+/// one scan arrived and none has arrived for idle_exit_s seconds with the queue empty.
+/// A message that scan_from_msg refuses is dropped and counted; the first is logged.
+class TopicScanSource : public ScanSource {
+ public:
+  /// Creates the scan reader on `node` (which must outlive this object). Throws
+  /// std::runtime_error if DDS refuses.
+  TopicScanSource(dds::Node& node, std::string robot_id, double idle_exit_s);
+  std::optional<LaserScan> next(const std::atomic<bool>& stop) override;
+  /// True once next() ended because no scan arrived for idle_exit_s.
+  bool ended() const override { return idle_; }
+  TopicScanStats stats() const;
+  int matched_writers() const { return reader_.matched_writers(); }
+
+ private:
+  using Clock = std::chrono::steady_clock;
+  /// DDS listener thread: queue the message, nothing else.
+  void on_message(const msg::LaserScanMsg& m);
+  /// Seq bookkeeping and conversion; std::nullopt (counted, first one logged) if malformed.
+  std::optional<LaserScan> convert(const msg::LaserScanMsg& m);
+
+  const std::string robot_id_;
+  const double idle_exit_s_;
+  bool idle_ = false;
+  std::optional<std::uint32_t> last_seq_;  ///< main thread only
+  std::uint64_t malformed_ = 0;            ///< main thread only
+  std::uint64_t seq_gaps_ = 0;             ///< main thread only
+  std::uint64_t seq_restarts_ = 0;         ///< main thread only
+
+  mutable std::mutex mutex_;  ///< guards the members up to the reader
+  std::condition_variable arrived_;
+  std::deque<msg::LaserScanMsg> queue_;
+  std::optional<Clock::time_point> last_arrival_;
+  std::uint64_t received_ = 0;
+  std::uint64_t other_robots_ = 0;
+  std::size_t max_queue_ = 0;
+
+  dds::ScanReader reader_;  ///< last: destroyed first, so no callback outlives the queue
+};
+
+/// Called after each scan: the scan, what the SLAM did with it, scans processed so far.
+using StepCallback = std::function<void(const LaserScan&, const SlamStep&, std::size_t)>;
+
+/// Runs the scans of `source` through `slam` in order until the source ends, `max_scans` scans
+/// were processed (0 = no limit) or `stop` is set (then interrupted = true, unless the source
+/// had ended anyway). Same statistics as app::run_slam, except that wall_s runs from the first
+/// scan to the end of the last (without the wait for the first scan and the idle end).
+app::SlamRunStats run_slam(Slam& slam, ScanSource& source, std::size_t max_scans,
+                           const std::atomic<bool>& stop, const StepCallback& on_step = {});
+
+}  // namespace esfleet::leader
