@@ -279,8 +279,8 @@ bool Slam::add_key_scan(const ScanPoints& points, const Pose2& pose, double stam
 }
 
 void Slam::apply_graph() {
-  constexpr double kMoveXy = 0.005;  // metres
-  const double kMoveTheta = deg_to_rad(0.05);
+  const double kMoveXy = config_.loop.move_min_xy;
+  const double kMoveTheta = deg_to_rad(config_.loop.move_min_theta_deg);
   bool changed = false;
   for (std::size_t k = 0; k < keys_.size(); ++k) {
     KeyScan& key = keys_[k];

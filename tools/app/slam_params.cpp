@@ -71,6 +71,11 @@ void add_slam_params(ParamTable& t, SlamConfig* s, CarmenReaderOptions* r) {
                "insert_min_turn 0 = every scan)");
   t.add_double("insert_min_turn", &s->insert_min_turn_deg, "... or turned this much, degrees");
   t.add_switch("loop_closure", &s->loop.enabled, "loop closure over a pose graph");
+  t.add_double("loop_move_min_xy", &s->loop.move_min_xy,
+               "after a loop closure, re-write a scan into the map only if it moved this far, "
+               "metres");
+  t.add_double("loop_move_min_theta", &s->loop.move_min_theta_deg,
+               "... or turned this much, degrees");
   t.add_int("loop_every", &s->loop.every, "attempt a loop closure every N inserted scans");
   t.add_double("loop_min_travel", &s->loop.min_travel,
                "a loop closes against scans at least this far back along the path, metres");

@@ -52,6 +52,11 @@ struct LoopClosureConfig {
   double sigma_xy = 0.05;        ///< loop edge standard deviation, metres
   double sigma_theta_deg = 1.0;  ///< loop edge standard deviation, degrees
   double huber = 2.0;            ///< Huber threshold of loop edges (whitened)
+  /// After optimising, a key scan is re-written into the map only if its pose moved at least
+  /// this much: smaller moves do not change the map's use and would make the leader republish
+  /// tiles for nothing.
+  double move_min_xy = 0.005;        ///< metres
+  double move_min_theta_deg = 0.05;  ///< degrees
   void validate() const;
 };
 
