@@ -59,6 +59,10 @@ r = {
     "bytes_per_log_s": d["bytes_per_log_s"],
     "full_map_bytes": d["full_map_bytes"],
     "full_map_over_tiles": d["full_map_over_tiles"],
+    "tiles_published": d["tiles_published"],
+    "tile_bytes": d["tile_bytes"],
+    "deltas_published": d.get("deltas_published", 0),
+    "delta_bytes": d.get("delta_bytes", 0),
     "tile_latency_ms_median": a["latency_ms_median"],
     "tile_latency_ms_p99": a["latency_ms_p99"],
     "late_joiner_time_to_complete_s": b["time_to_complete_s"],
@@ -70,6 +74,8 @@ print(f"{log}: {r['scans']} scans, {r['tiles']} tiles")
 print(f"  sent {r['bytes_total']/1e6:.2f} MB ({r['bytes_per_log_s']/1e3:.1f} kB per log second); "
       f"whole map every {r['publish_period_s']} s would be {r['full_map_bytes']/1e6:.1f} MB "
       f"({r['full_map_over_tiles']:.1f}x more)")
+print(f"  {r['tiles_published']} whole tiles ({r['tile_bytes']/1e6:.2f} MB), "
+      f"{r['deltas_published']} tile deltas ({r['delta_bytes']/1e6:.2f} MB)")
 print(f"  tile latency leader publish -> follower applied: median {r['tile_latency_ms_median']:.2f} ms, "
       f"p99 {r['tile_latency_ms_p99']:.2f} ms")
 print(f"  late joiner: full map after {r['late_joiner_time_to_complete_s']:.2f} s "

@@ -102,6 +102,12 @@ int main(int argc, char** argv) {
           {"tiles_stale", s.tiles_stale},
           {"tiles_ignored", s.tiles_ignored},
           {"tiles_rejected", s.tiles_rejected},
+          {"deltas_received", s.deltas_received},
+          {"deltas_applied", s.deltas_applied},
+          {"deltas_stale", s.deltas_stale},
+          {"deltas_needs_base", s.deltas_needs_base},
+          {"deltas_ignored", s.deltas_ignored},
+          {"deltas_rejected", s.deltas_rejected},
           {"meta_received", s.meta_received},
           {"meta_rejected", s.meta_rejected},
           {"bytes_received", s.bytes_received},
@@ -134,10 +140,12 @@ int main(int argc, char** argv) {
     if (Clock::now() - last_report > std::chrono::seconds(5)) {
       last_report = Clock::now();
       const auto& s = follow->stats();
-      spdlog::info("tiles: {} applied, {} stale, {} rejected; map {} tiles; leaders matched {}",
-                   s.tiles_applied, s.tiles_stale, s.tiles_rejected,
-                   follow->replica().has_map() ? follow->replica().map().tile_count() : 0,
-                   follow->matched_leaders());
+      spdlog::info(
+          "tiles: {} applied, {} stale, {} rejected; deltas: {} applied, {} waiting for a "
+          "whole tile; map {} tiles; leaders matched {}",
+          s.tiles_applied, s.tiles_stale, s.tiles_rejected, s.deltas_applied, s.deltas_needs_base,
+          follow->replica().has_map() ? follow->replica().map().tile_count() : 0,
+          follow->matched_leaders());
     }
     if (timeout > 0 && seconds_since_start() > timeout) {
       timed_out = true;

@@ -10,6 +10,10 @@ MapFollower::MapFollower(dds::Node& node, std::string map_id, GridMapConfig loca
              [this](const msg::MapTile& t, const dds::SampleMeta& m) {
                push({t, m.writer_guid});
              }),
+      deltas_(node,
+              [this](const msg::MapTileDelta& d, const dds::SampleMeta& m) {
+                push({d, m.writer_guid});
+              }),
       meta_(node, [this](const msg::MapMeta& t, const dds::SampleMeta& m) {
         push({t, m.writer_guid});
       }) {}
@@ -29,10 +33,11 @@ bool MapFollower::spin_once(std::chrono::milliseconds timeout) {
     cv_.wait_for(lock, timeout, [this] { return !queue_.empty(); });
     batch.swap(queue_);
   }
-  const std::uint64_t applied_before = stats_.tiles_applied;
+  const std::uint64_t applied_before = stats_.tiles_applied + stats_.deltas_applied;
   for (const Received& r : batch) handle(r);
-  stats_.bytes_received = tiles_.bytes_received() + meta_.bytes_received();
-  return stats_.tiles_applied != applied_before;
+  stats_.bytes_received =
+      tiles_.bytes_received() + deltas_.bytes_received() + meta_.bytes_received();
+  return stats_.tiles_applied + stats_.deltas_applied != applied_before;
 }
 
 void MapFollower::handle(const Received& r) {
@@ -54,9 +59,36 @@ void MapFollower::handle(const Received& r) {
         ++stats_.tiles_ignored;
         break;
       case dds::Applied::kRejected:
+      case dds::Applied::kNeedsBase:  // not returned for whole tiles
         ++stats_.tiles_rejected;
         log_once(r.writer, "tile",
                  "tile (" + std::to_string(tile->tx()) + ", " + std::to_string(tile->ty()) +
+                     ") dropped: " + error);
+        break;
+    }
+  } else if (const auto* delta = std::get_if<msg::MapTileDelta>(&r.sample)) {
+    ++stats_.deltas_received;
+    switch (replica_.apply(*delta, &error)) {
+      case dds::Applied::kApplied: {
+        ++stats_.deltas_applied;
+        const auto now = dds::realtime_ns();
+        stats_.latency_ms.push_back(
+            static_cast<double>(now - static_cast<std::int64_t>(delta->leader_stamp_ns())) / 1e6);
+        break;
+      }
+      case dds::Applied::kStale:
+        ++stats_.deltas_stale;
+        break;
+      case dds::Applied::kNeedsBase:
+        ++stats_.deltas_needs_base;
+        break;
+      case dds::Applied::kIgnored:
+        ++stats_.deltas_ignored;
+        break;
+      case dds::Applied::kRejected:
+        ++stats_.deltas_rejected;
+        log_once(r.writer, "delta",
+                 "tile delta (" + std::to_string(delta->tx()) + ", " + std::to_string(delta->ty()) +
                      ") dropped: " + error);
         break;
     }

@@ -1,5 +1,6 @@
 #pragma once
-// The follower's side of map sharing: DDS callbacks hand received tiles and summaries to the
+// The follower's side of map sharing: DDS callbacks hand received tiles, tile deltas and
+// summaries to the
 // application thread through a locked queue; the application thread applies them to a
 // MapReplica, counts what it dropped (logging once per sending writer and reason) and measures
 // the tile latency (leader publish -> applied here).
@@ -24,10 +25,17 @@ struct FollowStats {
   std::uint64_t tiles_stale = 0;
   std::uint64_t tiles_ignored = 0;  ///< other map id / older epoch
   std::uint64_t tiles_rejected = 0;
+  std::uint64_t deltas_received = 0;
+  std::uint64_t deltas_applied = 0;
+  std::uint64_t deltas_stale = 0;
+  std::uint64_t deltas_needs_base = 0;  ///< base missing: the next whole tile brings the tile up
+  std::uint64_t deltas_ignored = 0;     ///< other map id / older epoch
+  std::uint64_t deltas_rejected = 0;
   std::uint64_t meta_received = 0;
   std::uint64_t meta_rejected = 0;
   std::uint64_t bytes_received = 0;
-  std::vector<double> latency_ms;  ///< per applied tile: leader publish -> applied here
+  /// Per applied tile or delta: leader publish -> applied here.
+  std::vector<double> latency_ms;
 };
 
 class MapFollower {
@@ -35,7 +43,7 @@ class MapFollower {
   MapFollower(dds::Node& node, std::string map_id, GridMapConfig local = {});
 
   /// Applies what arrived (waiting up to `timeout` for something); returns true if the map
-  /// changed.
+  /// changed (a tile or a delta was applied).
   bool spin_once(std::chrono::milliseconds timeout);
 
   const dds::MapReplica& replica() const { return replica_; }
@@ -44,7 +52,7 @@ class MapFollower {
 
  private:
   struct Received {
-    std::variant<msg::MapTile, msg::MapMeta> sample;
+    std::variant<msg::MapTile, msg::MapTileDelta, msg::MapMeta> sample;
     std::string writer;
   };
   void push(Received r);
@@ -59,6 +67,7 @@ class MapFollower {
   std::set<std::string> logged_;
   // Readers last: they are destroyed first, so no callback runs into a dead queue.
   dds::TileReader tiles_;
+  dds::TileDeltaReader deltas_;
   dds::MetaReader meta_;
 };
 

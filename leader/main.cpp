@@ -41,6 +41,8 @@ struct OnlineOptions {
   double publish_period = 1.0;  ///< seconds of scan time between publishes
   double linger = -1.0;         ///< seconds to keep serving after the input; < 0 = until stopped
   std::string encoding = "med";
+  std::uint64_t full_every = 30;  ///< whole tile every this many publishes (deltas in between)
+  double full_period = 30.0;      ///< and at least every this many seconds of scan time
 };
 
 /// Progress line every this many scans when the total is not known (--scan-topic).
@@ -49,15 +51,15 @@ constexpr std::size_t kTopicProgressEvery = 100;
 /// stats.json "dds": what map sharing sent, against republishing the whole map; logs a summary.
 nlohmann::json dds_stats(const esfleet::leader::PublishStats& p, const OnlineOptions& o,
                          double input_s) {
-  const std::uint64_t sent_bytes = p.tile_bytes + p.meta_bytes + p.pose_bytes;
+  const std::uint64_t sent_bytes = p.tile_bytes + p.delta_bytes + p.meta_bytes + p.pose_bytes;
   const auto sent = static_cast<double>(sent_bytes);
   const auto full = static_cast<double>(p.full_map_bytes);
   const double per_s = input_s > 0 ? sent / input_s : 0.0;
   const double ratio = sent > 0 ? full / sent : 0.0;
   spdlog::info(
-      "published {} tiles, {:.1f} kB in all ({:.0f} B per log second); the whole "
-      "map at every publish would be {:.1f} kB ({:.1f}x more)",
-      p.tiles, sent / 1e3, per_s, full / 1e3, ratio);
+      "published {} tiles and {} tile deltas, {:.1f} kB in all ({:.0f} B per log second); the "
+      "whole map at every publish would be {:.1f} kB ({:.1f}x more)",
+      p.tiles, p.deltas, sent / 1e3, per_s, full / 1e3, ratio);
   return {
       {"domain", o.domain},
       {"map_id", o.map_id},
@@ -66,6 +68,10 @@ nlohmann::json dds_stats(const esfleet::leader::PublishStats& p, const OnlineOpt
       {"publishes", p.publishes},
       {"tiles_published", p.tiles},
       {"tile_bytes", p.tile_bytes},
+      {"deltas_published", p.deltas},
+      {"delta_bytes", p.delta_bytes},
+      {"full_every", o.full_every},
+      {"full_period_s", o.full_period},
       {"meta_bytes", p.meta_bytes},
       {"pose_bytes", p.pose_bytes},
       {"bytes_total", sent_bytes},
@@ -89,8 +95,9 @@ int main(int argc, char** argv) {
       "esfleet-leader: 2D laser SLAM with the (mu+1)-Evolution Strategy of Toda & Kubota, "
       "sharing its map over DDS.\n"
       "Maps a CARMEN log (--log) or the scans a robot publishes on esfleet/robots/scan "
-      "(--scan-topic) and publishes changed map tiles, the map summary and its pose (topics "
-      "esfleet/map/tiles, esfleet/map/meta, esfleet/robots/pose); late joiners get the whole "
+      "(--scan-topic) and publishes changed map tiles (whole or as deltas), the map summary and "
+      "its pose (topics esfleet/map/tiles, esfleet/map/tile_deltas, esfleet/map/meta, "
+      "esfleet/robots/pose); late joiners get the whole "
       "map. With --offline it maps a log without DDS. All write DIR/map.pgm, map.yaml (ROS "
       "map_server), map.png (map with trajectory), trajectory.txt (t x y theta per scan), "
       "map.digest (per-tile counter digests) and stats.json."};
@@ -135,6 +142,14 @@ int main(int argc, char** argv) {
                   "varints + zlib, raw = 8 bytes per cell")
       ->check(CLI::IsMember({"med", "varint", "raw"}))
       ->capture_default_str();
+  dds->add_option("--full-every", o.full_every,
+                  "send a changed tile whole every N publishes of it, as a delta against the "
+                  "previous publish in between (1 = always whole)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  dds->add_option("--full-period", o.full_period,
+                  "send a changed tile whole when its whole copy is S seconds of scan time old")
+      ->capture_default_str();
 
   SlamConfig config;
   CarmenReaderOptions reader_options;
@@ -149,6 +164,7 @@ int main(int argc, char** argv) {
     config.validate();
     if (!(o.rate >= 0.0)) throw std::invalid_argument("--rate must be >= 0");
     if (!(o.publish_period > 0.0)) throw std::invalid_argument("--publish-period must be > 0");
+    if (!(o.full_period > 0.0)) throw std::invalid_argument("--full-period must be > 0");
     if (log_path.empty() == scan_robot.empty()) {
       throw std::invalid_argument("give exactly one of --log FILE and --scan-topic ROBOT_ID");
     }
@@ -200,7 +216,8 @@ int main(int argc, char** argv) {
           *node, dds::MapIdentity{o.map_id, o.epoch}, o.robot_id,
           o.encoding == "raw"      ? TileEncoding::kRaw
           : o.encoding == "varint" ? TileEncoding::kVarintZlib
-                                   : TileEncoding::kMedZlib);
+                                   : TileEncoding::kMedZlib,
+          leader::DeltaPolicy{o.full_every, o.full_period});
       if (!scan_robot.empty()) {
         auto t = std::make_unique<leader::TopicScanSource>(*node, scan_robot, o.idle_exit);
         topic = t.get();

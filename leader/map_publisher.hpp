@@ -2,9 +2,19 @@
 // The leader's side of map sharing: publishes the tiles changed since the last call, the map
 // summary and the leader's pose, and keeps the byte counts that show what tiles save over
 // republishing the whole map (the ROS `map` topic habit).
+//
+// A changed tile goes out either whole (MapTile, on the transient-local topic late joiners
+// read) or as a delta (MapTileDelta: the counter differences against the version sent last).
+// Whole when the tile is new, or when `full_every` - 1 deltas of the tile followed its last whole
+// copy, or that copy is `full_period` seconds of scan time old; otherwise as a delta. (Counted in
+// publishes of the tile, not in tile versions: a version is bumped per scan, several per publish.)
+// When the map is complete, every tile whose whole copy is not its newest version goes out
+// whole, so late joiners (which never see deltas) end with the final map.
 
 #include <cstdint>
+#include <map>
 #include <string>
+#include <vector>
 
 #include "esfleet/core/grid_map.hpp"
 #include "esfleet/core/tile_codec.hpp"
@@ -17,6 +27,8 @@ struct PublishStats {
   std::uint64_t publishes = 0;       ///< calls to publish()
   std::uint64_t tiles = 0;           ///< tile samples written
   std::uint64_t tile_bytes = 0;      ///< their CDR bytes
+  std::uint64_t deltas = 0;          ///< tile delta samples written
+  std::uint64_t delta_bytes = 0;     ///< their CDR bytes
   std::uint64_t meta_bytes = 0;      ///< summary CDR bytes
   std::uint64_t pose_bytes = 0;      ///< pose CDR bytes
   std::uint64_t write_failures = 0;  ///< samples DDS refused
@@ -25,17 +37,31 @@ struct PublishStats {
   std::uint64_t full_map_bytes = 0;
 };
 
+/// When a changed tile goes out whole rather than as a delta (see the file comment).
+struct DeltaPolicy {
+  /// One whole tile every this many publishes of a tile (full_every - 1 deltas in between);
+  /// 1 = always whole (no deltas).
+  std::uint64_t full_every = 30;
+  /// Whole tile when the whole copy is this many seconds of scan time old.
+  double full_period = 30.0;
+};
+
 class MapPublisher {
  public:
   MapPublisher(dds::Node& node, dds::MapIdentity id, std::string robot_id,
-               TileEncoding encoding = TileEncoding::kMedZlib);
+               TileEncoding encoding = TileEncoding::kMedZlib, DeltaPolicy policy = {});
 
-  /// Publishes every tile changed since the last call (takes the map's dirty set), then the
-  /// summary, then the pose.
+  /// Publishes every tile changed since the last call (takes the map's dirty set), whole or as
+  /// a delta, then the summary, then the pose. `pose.stamp` is the scan time for full_period.
+  /// With `complete`, also every tile whose whole copy is older than its newest version.
   void publish(GridMap& map, const TimedPose& pose, float fitness, bool complete,
                std::uint32_t scans, const std::string& params_json);
-  /// Marks every tile dirty so the next publish() sends the whole map.
-  void republish_all(GridMap& map) { map.mark_all_dirty(); }
+  /// Forgets what was sent and marks every tile dirty, so the next publish() sends every tile
+  /// whole.
+  void republish_all(GridMap& map) {
+    sent_.clear();
+    map.mark_all_dirty();
+  }
 
   const PublishStats& stats() const { return stats_; }
   dds::TileWriter& tile_writer() { return tiles_; }
@@ -43,10 +69,25 @@ class MapPublisher {
   bool flush(std::chrono::milliseconds timeout);
 
  private:
+  /// What the followers were sent of one tile.
+  struct Sent {
+    std::uint64_t version = 0;       ///< version of the last tile or delta written
+    std::vector<std::uint32_t> hit;  ///< the counters at `version`
+    std::vector<std::uint32_t> err;
+    std::uint64_t full_version = 0;       ///< version of the last whole tile written
+    std::uint64_t deltas_since_full = 0;  ///< deltas written since that whole tile
+    double full_stamp = 0.0;              ///< scan time of that write
+  };
+  /// Writes tile `k` whole (true) or as a delta; updates `sent`.
+  void send(const GridMap& map, TileKey k, Sent& sent, bool whole, double stamp, std::int64_t now);
+
   dds::MapIdentity id_;
   std::string robot_id_;
   TileEncoding encoding_;
+  DeltaPolicy policy_;
+  std::map<TileKey, Sent> sent_;
   dds::TileWriter tiles_;
+  dds::TileDeltaWriter deltas_;
   dds::MetaWriter meta_;
   dds::PoseWriter pose_;
   PublishStats stats_;

@@ -1,7 +1,7 @@
-// Writer<Msg> and Reader<Msg> for the four esfleet topics: QoS per topic, DataWriter/DataReader
+// Writer<Msg> and Reader<Msg> for the five esfleet topics: QoS per topic, DataWriter/DataReader
 // creation and deletion, the DataReader listener that hands samples to the callback, counters.
 // One of the two translation units of esfleet_dds that include Fast DDS headers; the templates
-// are instantiated here for the four message types only.
+// are instantiated here for the five message types only.
 
 #include <atomic>
 #include <chrono>
@@ -42,6 +42,13 @@ struct Traits<msg::MapTile> {
   static constexpr std::string_view kTopic = kTileTopic;
   static constexpr bool kTransientLocal = true;
   static constexpr std::int32_t kDepth = 1;
+};
+template <>
+struct Traits<msg::MapTileDelta> {
+  using PubSub = msg::MapTileDeltaPubSubType;
+  static constexpr std::string_view kTopic = kTileDeltaTopic;
+  static constexpr bool kTransientLocal = false;
+  static constexpr std::int32_t kDepth = 64;  // a gap in a tile's chain costs a full tile
 };
 template <>
 struct Traits<msg::MapMeta> {
@@ -348,10 +355,12 @@ bool Reader<Msg>::wait_for_matched(int count, std::chrono::milliseconds timeout)
 }
 
 template class Writer<msg::MapTile>;
+template class Writer<msg::MapTileDelta>;
 template class Writer<msg::MapMeta>;
 template class Writer<msg::RobotPose>;
 template class Writer<msg::LaserScanMsg>;
 template class Reader<msg::MapTile>;
+template class Reader<msg::MapTileDelta>;
 template class Reader<msg::MapMeta>;
 template class Reader<msg::RobotPose>;
 template class Reader<msg::LaserScanMsg>;

@@ -43,6 +43,46 @@ msg::MapTile tile_to_msg(const GridMap& map, TileKey key, const MapIdentity& id,
   return m;
 }
 
+msg::MapTileDelta tile_delta_to_msg(const GridMap& map, TileKey key, std::uint64_t base_version,
+                                    std::span<const std::uint32_t> base_hit,
+                                    std::span<const std::uint32_t> base_err, const MapIdentity& id,
+                                    TileEncoding encoding, std::int64_t stamp_ns) {
+  const Tile* tile = map.find_tile(key);
+  if (tile == nullptr) {
+    throw std::invalid_argument("no tile (" + std::to_string(key.tx) + ", " +
+                                std::to_string(key.ty) + ") in the map");
+  }
+  if (base_hit.size() != tile->hit.size() || base_err.size() != tile->err.size()) {
+    throw std::invalid_argument("delta base has " + std::to_string(base_hit.size()) +
+                                " cells, the tile " + std::to_string(tile->hit.size()));
+  }
+  if (base_version >= tile->version) {
+    throw std::invalid_argument("delta base version " + std::to_string(base_version) +
+                                " is not older than the tile's " + std::to_string(tile->version));
+  }
+  std::vector<std::uint32_t> dhit(tile->hit.size()), derr(tile->err.size());
+  for (std::size_t i = 0; i < dhit.size(); ++i) {
+    dhit[i] = tile->hit[i] - base_hit[i];  // modulo 2^32: counters may also decrease
+    derr[i] = tile->err[i] - base_err[i];
+  }
+  msg::MapTileDelta m;
+  m.map_id(id.map_id);
+  m.tx(key.tx);
+  m.ty(key.ty);
+  m.protocol(msg::kProtocolVersion);
+  m.epoch(id.epoch);
+  m.version(tile->version);
+  m.base_version(base_version);
+  m.cell_size(static_cast<float>(map.cell_size()));
+  m.tile_edge(static_cast<std::uint16_t>(map.tile_edge()));
+  EncodedTile e = encode_tile(dhit, derr, encoding);
+  m.encoding(static_cast<std::uint8_t>(e.encoding));
+  m.cells(static_cast<std::uint32_t>(map.cells_per_tile()));
+  m.payload(std::move(e.payload));
+  m.leader_stamp_ns(static_cast<std::uint64_t>(stamp_ns));
+  return m;
+}
+
 msg::MapMeta meta_to_msg(const GridMap& map, const MapIdentity& id, bool complete,
                          std::uint32_t scans, const std::string& params_json,
                          std::int64_t stamp_ns) {
@@ -179,6 +219,21 @@ std::string MapReplica::check_layout(float cell_size, std::uint32_t tile_edge,
   return {};
 }
 
+std::string MapReplica::check_tile(std::uint32_t cells, std::uint32_t tile_edge,
+                                   TileKey key) const {
+  const std::size_t expected = static_cast<std::size_t>(tile_edge) * tile_edge;
+  if (cells != expected) {
+    return "cells " + std::to_string(cells) +
+           ", expected tile_edge^2 = " + std::to_string(expected);
+  }
+  if (std::abs(static_cast<std::int64_t>(key.tx)) > local_.max_tile_coord ||
+      std::abs(static_cast<std::int64_t>(key.ty)) > local_.max_tile_coord) {
+    return "tile (" + std::to_string(key.tx) + ", " + std::to_string(key.ty) + ") is outside +-" +
+           std::to_string(local_.max_tile_coord);
+  }
+  return {};
+}
+
 namespace {
 Applied reject(std::string* error, std::string what) {
   if (error != nullptr) *error = std::move(what);
@@ -200,15 +255,9 @@ Applied MapReplica::apply(const msg::MapTile& t, std::string* error) {
     return reject(error, e);
   }
   const std::size_t cells = static_cast<std::size_t>(t.tile_edge()) * t.tile_edge();
-  if (t.cells() != cells) {
-    return reject(error, "cells " + std::to_string(t.cells()) +
-                             ", expected tile_edge^2 = " + std::to_string(cells));
-  }
   const TileKey key{t.tx(), t.ty()};
-  if (std::abs(static_cast<std::int64_t>(key.tx)) > local_.max_tile_coord ||
-      std::abs(static_cast<std::int64_t>(key.ty)) > local_.max_tile_coord) {
-    return reject(error, "tile (" + std::to_string(key.tx) + ", " + std::to_string(key.ty) +
-                             ") is outside +-" + std::to_string(local_.max_tile_coord));
+  if (std::string e = check_tile(t.cells(), t.tile_edge(), key); !e.empty()) {
+    return reject(error, e);
   }
   if (!fresh) {
     if (const Tile* have = map_->find_tile(key); have != nullptr && have->version >= t.version()) {
@@ -225,6 +274,44 @@ Applied MapReplica::apply(const msg::MapTile& t, std::string* error) {
     reset(t.epoch(), t.cell_size(), t.tile_edge());
   }
   map_->set_tile(key, t.version(), hit_, err_);
+  return Applied::kApplied;
+}
+
+Applied MapReplica::apply(const msg::MapTileDelta& d, std::string* error) {
+  if (d.protocol() != msg::kProtocolVersion) {
+    return reject(error, "protocol " + std::to_string(d.protocol()) + ", expected " +
+                             std::to_string(msg::kProtocolVersion));
+  }
+  const std::string id = d.map_id().to_string();
+  if (!map_id_.empty() && id != map_id_) return Applied::kIgnored;
+  if (d.epoch() < epoch_) return Applied::kIgnored;
+  const bool same_map = map_ && d.epoch() == epoch_;
+  if (std::string e = check_layout(d.cell_size(), d.tile_edge(), same_map); !e.empty()) {
+    return reject(error, e);
+  }
+  const std::size_t cells = static_cast<std::size_t>(d.tile_edge()) * d.tile_edge();
+  const TileKey key{d.tx(), d.ty()};
+  if (std::string e = check_tile(d.cells(), d.tile_edge(), key); !e.empty()) {
+    return reject(error, e);
+  }
+  if (d.base_version() >= d.version()) {
+    return reject(error, "base_version " + std::to_string(d.base_version()) +
+                             " is not older than version " + std::to_string(d.version()));
+  }
+  try {
+    decode_tile(static_cast<TileEncoding>(d.encoding()), d.payload(), cells, hit_, err_);
+  } catch (const std::exception& e) {
+    return reject(error, std::string("payload: ") + e.what());
+  }
+  if (!same_map) return Applied::kNeedsBase;  // a map (or epoch) known only from deltas
+  const Tile* have = map_->find_tile(key);
+  if (have != nullptr && have->version >= d.version()) return Applied::kStale;
+  if (have == nullptr || have->version != d.base_version()) return Applied::kNeedsBase;
+  for (std::size_t i = 0; i < cells; ++i) {
+    hit_[i] += have->hit[i];  // modulo 2^32, the inverse of the leader's subtraction
+    err_[i] += have->err[i];
+  }
+  map_->set_tile(key, d.version(), hit_, err_);
   return Applied::kApplied;
 }
 

@@ -7,6 +7,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
+#include <map>
 #include <random>
 
 #include "esfleet/core/tile_codec.hpp"
@@ -142,6 +144,187 @@ TEST(MapReplica, MalformedTilesAreRejectedWithAReasonAndChangeNothing) {
     EXPECT_NE(error.find(c.expect), std::string::npos) << c.name << ": " << error;
   }
   EXPECT_EQ(map_digest(replica.map()), before);
+}
+
+/// Random changes to `map` in a small area (hits, misses and some removals, so differences are
+/// also negative modulo 2^32), then one commit.
+void change_map(GridMap& map, std::mt19937& gen, int updates) {
+  std::uniform_int_distribution<int> cell(-150, 150);
+  for (int i = 0; i < updates; ++i) {
+    const CellIndex c{cell(gen), cell(gen)};
+    switch (gen() % 5) {
+      case 0:
+        map.add_hit(c);
+        break;
+      case 1:
+        map.remove_err(c);
+        break;
+      case 2:
+        map.remove_hit(c);
+        break;
+      default:
+        map.add_err(c);
+    }
+  }
+  map.commit_update();
+}
+
+TEST(MapReplica, RebuildsTheLeadersMapFromAMixOfTilesAndDeltas) {
+  std::mt19937 gen(11);
+  GridMap leader = random_map(10);
+  const MapIdentity id;
+  MapReplica live;  // gets everything in order
+  struct Sent {
+    std::uint64_t version = 0, full_version = 0;
+    std::vector<std::uint32_t> hit, err;
+  };
+  std::map<TileKey, Sent> sent;
+  std::map<TileKey, msg::MapTile> last_full;  // what a transient-local KEEP_LAST 1 topic holds
+  int fulls = 0, deltas = 0;
+  const std::uint64_t full_every = 4;
+  for (int step = 0; step < 40; ++step) {
+    change_map(leader, gen, step % 7 == 0 ? 400 : 30);
+    for (const TileKey k : leader.take_dirty()) {
+      const Tile& tile = *leader.find_tile(k);
+      auto [it, is_new] = sent.try_emplace(k);
+      Sent& s = it->second;
+      std::string error;
+      if (is_new || tile.version - s.full_version >= full_every) {
+        const msg::MapTile m = tile_to_msg(leader, k, id, TileEncoding::kMedZlib, step);
+        ASSERT_EQ(live.apply(m, &error), Applied::kApplied) << error;
+        last_full[k] = m;
+        s.full_version = tile.version;
+        ++fulls;
+      } else {
+        const msg::MapTileDelta d =
+            tile_delta_to_msg(leader, k, s.version, s.hit, s.err, id, TileEncoding::kMedZlib, step);
+        EXPECT_EQ(d.base_version(), s.version);
+        EXPECT_EQ(d.version(), tile.version);
+        ASSERT_EQ(live.apply(d, &error), Applied::kApplied) << error;
+        EXPECT_EQ(live.apply(d, &error), Applied::kStale);  // a duplicate
+        ++deltas;
+      }
+      s.version = tile.version;
+      s.hit = tile.hit;
+      s.err = tile.err;
+    }
+    ASSERT_EQ(map_digest(live.map()), map_digest(leader)) << "step " << step;
+  }
+  EXPECT_GT(fulls, 0);
+  EXPECT_GT(deltas, fulls);
+  EXPECT_EQ(map_version(live.map()), map_version(leader));
+
+  // A late joiner gets the newest whole tiles only; once the leader sends the whole tiles whose
+  // copy is older than the newest version (as MapPublisher does when complete) it holds the map.
+  MapReplica late;
+  for (const auto& [k, m] : last_full) ASSERT_EQ(late.apply(m), Applied::kApplied);
+  for (const auto& [k, s] : sent) {
+    if (s.full_version < s.version) {
+      EXPECT_EQ(late.apply(tile_to_msg(leader, k, id, TileEncoding::kMedZlib, 99)),
+                Applied::kApplied);
+      EXPECT_EQ(live.apply(tile_to_msg(leader, k, id, TileEncoding::kMedZlib, 99)),
+                Applied::kStale);
+    }
+  }
+  EXPECT_EQ(map_digest(late.map()), map_digest(leader));
+}
+
+TEST(MapReplica, ADeltaWithoutItsBaseNeedsBaseAndChangesNothing) {
+  GridMap leader = random_map(12);
+  const MapIdentity id;
+  const TileKey k = leader.tile_keys().front();
+  const Tile* tile = leader.find_tile(k);
+  const std::uint64_t v1 = tile->version;
+  const std::vector<std::uint32_t> hit1 = tile->hit, err1 = tile->err;
+  const msg::MapTile full1 = tile_to_msg(leader, k, id, TileEncoding::kMedZlib, 1);
+  leader.add_hit({k.tx * 64 + 3, k.ty * 64 + 5});
+  leader.commit_update();
+  const std::uint64_t v2 = tile->version;
+  const std::vector<std::uint32_t> hit2 = tile->hit, err2 = tile->err;
+  const msg::MapTileDelta d12 =
+      tile_delta_to_msg(leader, k, v1, hit1, err1, id, TileEncoding::kMedZlib, 2);
+  leader.add_err({k.tx * 64 + 7, k.ty * 64 + 1});
+  leader.commit_update();
+  const msg::MapTileDelta d23 =
+      tile_delta_to_msg(leader, k, v2, hit2, err2, id, TileEncoding::kMedZlib, 3);
+  EXPECT_LT(d23.payload().size(), 100u);  // mostly zero differences compress to little
+
+  MapReplica replica;
+  EXPECT_EQ(replica.apply(d12), Applied::kNeedsBase);  // no map at all yet
+  EXPECT_FALSE(replica.has_map());
+  send_all(random_map(13), replica, id);  // another map: no tile (900, ty)
+  const std::string before = map_digest(replica.map());
+  MapReplica fresh;
+  EXPECT_EQ(fresh.apply(full1), Applied::kApplied);
+  const std::string fresh_before = map_digest(fresh.map());
+  EXPECT_EQ(fresh.apply(d23), Applied::kNeedsBase);  // holds v1, the delta needs v2
+  EXPECT_EQ(map_digest(fresh.map()), fresh_before);
+  EXPECT_EQ(fresh.map().find_tile(k)->version, v1);
+  EXPECT_EQ(fresh.apply(d12), Applied::kApplied);
+  EXPECT_EQ(fresh.apply(d23), Applied::kApplied);
+  EXPECT_EQ(fresh.map().find_tile(k)->hit, tile->hit);
+  EXPECT_EQ(fresh.map().find_tile(k)->err, tile->err);
+  EXPECT_EQ(fresh.map().find_tile(k)->version, tile->version);
+  EXPECT_EQ(fresh.apply(d12), Applied::kStale);
+  // The replica holding other tiles but not the base of k: needs base, unchanged.
+  msg::MapTileDelta elsewhere = d12;
+  elsewhere.tx(900);
+  EXPECT_EQ(replica.apply(elsewhere), Applied::kNeedsBase);
+  EXPECT_EQ(map_digest(replica.map()), before);
+}
+
+TEST(MapReplica, MalformedDeltasAreRejectedWithAReasonAndChangeNothing) {
+  GridMap leader = random_map(14);
+  const MapIdentity id;
+  MapReplica replica;
+  send_all(leader, replica, id);
+  const TileKey k = leader.tile_keys().front();
+  const Tile* tile = leader.find_tile(k);
+  const std::vector<std::uint32_t> hit = tile->hit, err = tile->err;
+  const std::uint64_t base = tile->version;
+  leader.add_hit({k.tx * 64, k.ty * 64});
+  leader.commit_update();
+  const msg::MapTileDelta good =
+      tile_delta_to_msg(leader, k, base, hit, err, id, TileEncoding::kMedZlib, 1);
+  const std::string before = map_digest(replica.map());
+
+  struct Case {
+    const char* name;
+    std::function<void(msg::MapTileDelta&)> spoil;
+    const char* expect;
+  };
+  const std::vector<Case> cases = {
+      {"protocol", [](msg::MapTileDelta& d) { d.protocol(9); }, "protocol 9"},
+      {"cells", [](msg::MapTileDelta& d) { d.cells(100); }, "cells 100"},
+      {"tile edge", [](msg::MapTileDelta& d) { d.tile_edge(63); }, "tile_edge 63"},
+      {"tile edge change", [](msg::MapTileDelta& d) { d.tile_edge(32); }, "differs"},
+      {"cell size", [](msg::MapTileDelta& d) { d.cell_size(std::nanf("")); }, "cell_size"},
+      {"key", [](msg::MapTileDelta& d) { d.ty(-5000000); }, "outside"},
+      {"base version", [](msg::MapTileDelta& d) { d.base_version(d.version()); }, "base_version"},
+      {"encoding", [](msg::MapTileDelta& d) { d.encoding(7); }, "unknown encoding 7"},
+      {"payload", [](msg::MapTileDelta& d) { d.payload().resize(d.payload().size() / 2); }, "zlib"},
+  };
+  for (const Case& c : cases) {
+    msg::MapTileDelta bad = good;
+    c.spoil(bad);
+    std::string error;
+    EXPECT_EQ(replica.apply(bad, &error), Applied::kRejected) << c.name;
+    EXPECT_NE(error.find(c.expect), std::string::npos) << c.name << ": " << error;
+  }
+  EXPECT_EQ(map_digest(replica.map()), before);
+  EXPECT_EQ(replica.apply(good), Applied::kApplied);
+  EXPECT_EQ(map_digest(replica.map()), map_digest(leader));
+}
+
+TEST(MapMessages, TileDeltaToMsgRefusesABadBase) {
+  const GridMap leader = random_map(15);
+  const TileKey k = leader.tile_keys().front();
+  const Tile& t = *leader.find_tile(k);
+  EXPECT_THROW(tile_delta_to_msg(leader, k, t.version, t.hit, t.err, {}, TileEncoding::kMedZlib, 1),
+               std::invalid_argument);
+  const std::vector<std::uint32_t> small(10);
+  EXPECT_THROW(tile_delta_to_msg(leader, k, 0, small, small, {}, TileEncoding::kMedZlib, 1),
+               std::invalid_argument);
 }
 
 TEST(MapMessages, MetaDescribesTheMap) {

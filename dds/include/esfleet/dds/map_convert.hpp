@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <optional>
+#include <span>
 #include <string>
 
 #include <esfleet/msg/esfleet.h>
@@ -34,6 +35,16 @@ std::uint64_t map_version(const GridMap& map);
 msg::MapTile tile_to_msg(const GridMap& map, TileKey key, const MapIdentity& id,
                          TileEncoding encoding, std::int64_t stamp_ns);
 
+/// Leader: the delta of tile `key` of `map` (which must exist) against the counters `base_hit`,
+/// `base_err` the leader sent as version `base_version` (< the tile's version): the per-cell
+/// differences now - base (uint32, modulo 2^32), encoded with `encoding`. Throws
+/// std::invalid_argument for a missing tile, base spans of the wrong size or a base version not
+/// older than the tile's.
+msg::MapTileDelta tile_delta_to_msg(const GridMap& map, TileKey key, std::uint64_t base_version,
+                                    std::span<const std::uint32_t> base_hit,
+                                    std::span<const std::uint32_t> base_err, const MapIdentity& id,
+                                    TileEncoding encoding, std::int64_t stamp_ns);
+
 /// Leader: the map summary.
 msg::MapMeta meta_to_msg(const GridMap& map, const MapIdentity& id, bool complete,
                          std::uint32_t scans, const std::string& params_json,
@@ -50,10 +61,12 @@ LaserScan scan_from_msg(const msg::LaserScanMsg& m);
 
 /// What a follower did with a received tile or summary.
 enum class Applied {
-  kApplied,   ///< the replica changed
-  kStale,     ///< version not newer than what the replica holds (a duplicate or reordering)
-  kIgnored,   ///< another map id or an older epoch
-  kRejected,  ///< malformed: see the error string
+  kApplied,    ///< the replica changed
+  kStale,      ///< version not newer than what the replica holds (a duplicate or reordering)
+  kIgnored,    ///< another map id or an older epoch
+  kRejected,   ///< malformed: see the error string
+  kNeedsBase,  ///< a delta whose base version the replica does not hold (the next full tile fixes
+               ///< it)
 };
 
 /// The follower's copy of the leader's map. Not thread-safe: feed it from one thread (DDS
@@ -68,6 +81,12 @@ class MapReplica {
   /// Validates and applies one tile. On kRejected, `error` (if given) says why, naming the
   /// field. Tiles received before the first summary create the map from their own layout.
   Applied apply(const msg::MapTile& tile, std::string* error = nullptr);
+  /// Validates and applies one tile delta (same checks as a tile, plus base_version < version).
+  /// Applied only when the replica holds the tile at exactly base_version: then the differences
+  /// are added (modulo 2^32) and the tile takes `version`. kStale when the replica's version is
+  /// >= version; kNeedsBase when it lacks the base (no such tile, another version, another
+  /// epoch or no map yet): nothing changes, the next full tile brings the tile up to date.
+  Applied apply(const msg::MapTileDelta& delta, std::string* error = nullptr);
   /// Records the leader's summary (layout, bounds, completeness).
   Applied apply(const msg::MapMeta& meta, std::string* error = nullptr);
 
@@ -85,6 +104,8 @@ class MapReplica {
   /// Checks layout fields shared by tiles and summaries (ranges, and equality with the current
   /// map when `against_map`); returns an error or "".
   std::string check_layout(float cell_size, std::uint32_t tile_edge, bool against_map) const;
+  /// Checks cells == tile_edge^2 and the key range; returns an error or "".
+  std::string check_tile(std::uint32_t cells, std::uint32_t tile_edge, TileKey key) const;
 
   std::string map_id_;
   GridMapConfig local_;

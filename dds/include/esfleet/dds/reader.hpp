@@ -1,7 +1,8 @@
 #pragma once
-// Typed DDS readers for the esfleet topics (TileReader, MetaReader, PoseReader, ScanReader) that
-// hand every received sample to a callback. Plain C++ API over the generated message classes;
-// the Fast DDS entities live in dds/src/endpoints.cpp. QoS matches the writers (writer.hpp).
+// Typed DDS readers for the esfleet topics (TileReader, TileDeltaReader, MetaReader, PoseReader,
+// ScanReader) that hand every received sample to a callback. Plain C++ API over the generated
+// message classes; the Fast DDS entities live in dds/src/endpoints.cpp. QoS matches the writers
+// (writer.hpp).
 //
 // Threading: the callback runs on a Fast DDS listener thread (the DataReader's
 // on_data_available), never on the thread that created the reader. It must be short, must not
@@ -81,12 +82,15 @@ class Reader {
 };
 
 extern template class Reader<msg::MapTile>;
+extern template class Reader<msg::MapTileDelta>;
 extern template class Reader<msg::MapMeta>;
 extern template class Reader<msg::RobotPose>;
 extern template class Reader<msg::LaserScanMsg>;
 
 /// Receives map tiles from kTileTopic.
 using TileReader = Reader<msg::MapTile>;
+/// Receives tile deltas from kTileDeltaTopic.
+using TileDeltaReader = Reader<msg::MapTileDelta>;
 /// Receives map summaries from kMetaTopic.
 using MetaReader = Reader<msg::MapMeta>;
 /// Receives robot poses from kPoseTopic.

@@ -3,10 +3,11 @@
 // version every message carries. Plain C++ (no Fast DDS headers), cheap to include.
 //
 // Topics (type in esfleet/msg/esfleet.h, generated from idl/esfleet.idl):
-//   esfleet/map/tiles    msg::MapTile       leader -> followers, keyed (map_id, tx, ty)
-//   esfleet/map/meta     msg::MapMeta       leader -> followers, keyed map_id
-//   esfleet/robots/pose  msg::RobotPose     every robot, keyed robot_id
-//   esfleet/robots/scan  msg::LaserScanMsg  every robot (optional), keyed robot_id
+//   esfleet/map/tiles        msg::MapTile       leader -> followers, keyed (map_id, tx, ty)
+//   esfleet/map/tile_deltas  msg::MapTileDelta  leader -> followers, keyed (map_id, tx, ty)
+//   esfleet/map/meta         msg::MapMeta       leader -> followers, keyed map_id
+//   esfleet/robots/pose      msg::RobotPose     every robot, keyed robot_id
+//   esfleet/robots/scan      msg::LaserScanMsg  every robot (optional), keyed robot_id
 
 #include <cstdint>
 #include <string_view>
@@ -26,6 +27,8 @@ inline constexpr int kMaxDomain = 232;
 
 /// Map tiles (msg::MapTile): reliable, transient-local, keep last 1 per tile.
 inline constexpr std::string_view kTileTopic = "esfleet/map/tiles";
+/// Tile deltas (msg::MapTileDelta): reliable, volatile, keep last 64 per tile.
+inline constexpr std::string_view kTileDeltaTopic = "esfleet/map/tile_deltas";
 /// Map summaries (msg::MapMeta): reliable, transient-local, keep last 1 per map.
 inline constexpr std::string_view kMetaTopic = "esfleet/map/meta";
 /// Robot poses (msg::RobotPose): reliable, volatile, keep last 1 per robot.

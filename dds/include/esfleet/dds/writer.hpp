@@ -1,11 +1,13 @@
 #pragma once
-// Typed DDS writers for the esfleet topics (TileWriter, MetaWriter, PoseWriter, ScanWriter).
-// Plain C++ API over the generated message classes; the Fast DDS entities live in
+// Typed DDS writers for the esfleet topics (TileWriter, TileDeltaWriter, MetaWriter, PoseWriter,
+// ScanWriter). Plain C++ API over the generated message classes; the Fast DDS entities live in
 // dds/src/endpoints.cpp.
 //
 // QoS (readers use the same, see reader.hpp):
 //   TileWriter, MetaWriter: RELIABLE, TRANSIENT_LOCAL, KEEP_LAST 1 per key, so a follower that
 //     joins late gets exactly the newest version of every tile / map summary.
+//   TileDeltaWriter: RELIABLE, VOLATILE, KEEP_LAST 64 per key (deltas only make sense in order
+//     after the full tile they build on; late joiners get full tiles instead).
 //   PoseWriter: RELIABLE, VOLATILE, KEEP_LAST 1 per robot.
 //   ScanWriter: RELIABLE, VOLATILE, KEEP_LAST 50 per robot.
 //   All: resource limits unlimited (Fast DDS's default max_instances = 10 silently drops writes
@@ -70,12 +72,15 @@ class Writer {
 };
 
 extern template class Writer<msg::MapTile>;
+extern template class Writer<msg::MapTileDelta>;
 extern template class Writer<msg::MapMeta>;
 extern template class Writer<msg::RobotPose>;
 extern template class Writer<msg::LaserScanMsg>;
 
 /// Publishes map tiles on kTileTopic.
 using TileWriter = Writer<msg::MapTile>;
+/// Publishes tile deltas on kTileDeltaTopic.
+using TileDeltaWriter = Writer<msg::MapTileDelta>;
 /// Publishes map summaries on kMetaTopic.
 using MetaWriter = Writer<msg::MapMeta>;
 /// Publishes robot poses on kPoseTopic.
