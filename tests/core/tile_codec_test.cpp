@@ -363,7 +363,8 @@ TEST(TileCodecTest, OverlongVarintIsRejected) {
 TEST(TileCodecTest, ShortVarintStreamIsRejected) {
   const Counters in = random_counters(4000, 11);
   SCOPED_TRACE("seed 11");
-  EXPECT_EQ(decode_error(TileEncoding::kVarintZlib, encode_tile(in.hit, in.err, TileEncoding::kVarintZlib).payload, kCells),
+  EXPECT_EQ(decode_error(TileEncoding::kVarintZlib,
+                         encode_tile(in.hit, in.err, TileEncoding::kVarintZlib).payload, kCells),
             "varint stream ends after 4000 of 4096 cells");
   // Ends inside cell 1: its hit is complete, its err varint is cut after a continuation byte.
   const std::vector<std::uint8_t> cut{0x05, 0x06, 0x07, 0x80};
@@ -377,13 +378,15 @@ TEST(TileCodecTest, TrailingDataIsRejected) {
   // After the last cell, inside the zlib stream.
   const Counters in = random_counters(kCells + 1, 12);
   SCOPED_TRACE("seed 12");
-  const std::vector<std::uint8_t> extra_cell = encode_tile(in.hit, in.err, TileEncoding::kVarintZlib).payload;
+  const std::vector<std::uint8_t> extra_cell =
+      encode_tile(in.hit, in.err, TileEncoding::kVarintZlib).payload;
   const std::string what = decode_error(TileEncoding::kVarintZlib, extra_cell, kCells);
   EXPECT_TRUE(starts_with(what, "trailing bytes: ")) << what;
   EXPECT_EQ(decode_error(TileEncoding::kVarintZlib, deflate_bytes({0x01, 0x02, 0x03}), 1),
             "trailing bytes: 1 after the last of 1 cells");
   // After the end of the zlib stream.
-  std::vector<std::uint8_t> appended = encode_tile(in.hit, in.err, TileEncoding::kVarintZlib).payload;
+  std::vector<std::uint8_t> appended =
+      encode_tile(in.hit, in.err, TileEncoding::kVarintZlib).payload;
   appended.push_back(0x00);
   appended.push_back(0x00);
   EXPECT_EQ(decode_error(TileEncoding::kVarintZlib, appended, kCells + 1),
