@@ -148,17 +148,7 @@ app::SlamRunStats run_slam(Slam& slam, ScanSource& source, std::size_t max_scans
     if (!first) first = t0;
     const SlamStep step = slam.process(*scan);
     const auto t1 = Clock::now();
-    // The same bookkeeping as app::run_slam, so stats.json means the same for every source.
-    stats.ms_per_scan.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
-    ++stats.scans;
-    stats.inserted += step.inserted ? 1 : 0;
-    stats.search_ms.push_back(step.search_ms);
-    if (step.inserted) stats.update_ms.push_back(step.update_ms);
-    if (stats.scans > 1) {
-      const float a = step.fitness.agreement();
-      stats.agreement.push_back(a);
-      if (a < 0.5f) ++stats.weak_matches;
-    }
+    stats.record(step, std::chrono::duration<double, std::milli>(t1 - t0).count());
     if (on_step) on_step(*scan, step, stats.scans);
     last = Clock::now();
   }

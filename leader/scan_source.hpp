@@ -118,8 +118,8 @@ using StepCallback = std::function<void(const LaserScan&, const SlamStep&, std::
 
 /// Runs the scans of `source` through `slam` in order until the source ends, `max_scans` scans
 /// were processed (0 = no limit) or `stop` is set (then interrupted = true, unless the source
-/// had ended anyway). Same statistics as app::run_slam, except that wall_s runs from the first
-/// scan to the end of the last (without the wait for the first scan and the idle end).
+/// had ended anyway). Statistics as app::SlamRunStats::record keeps them; wall_s runs from the
+/// first scan to the end of the last (without the wait for the first scan and the idle end).
 app::SlamRunStats run_slam(Slam& slam, ScanSource& source, std::size_t max_scans,
                            const std::atomic<bool>& stop, const StepCallback& on_step = {});
 

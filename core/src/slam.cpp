@@ -279,14 +279,14 @@ bool Slam::add_key_scan(const ScanPoints& points, const Pose2& pose, double stam
 }
 
 void Slam::apply_graph() {
-  const double kMoveXy = config_.loop.move_min_xy;
-  const double kMoveTheta = deg_to_rad(config_.loop.move_min_theta_deg);
+  const double move_xy = config_.loop.move_min_xy;
+  const double move_theta = deg_to_rad(config_.loop.move_min_theta_deg);
   bool changed = false;
   for (std::size_t k = 0; k < keys_.size(); ++k) {
     KeyScan& key = keys_[k];
     const Pose2& now = graph_.node(k);
-    if (std::hypot(now.x - key.mapped_pose.x, now.y - key.mapped_pose.y) < kMoveXy &&
-        std::abs(normalize_angle(now.theta - key.mapped_pose.theta)) < kMoveTheta) {
+    if (std::hypot(now.x - key.mapped_pose.x, now.y - key.mapped_pose.y) < move_xy &&
+        std::abs(normalize_angle(now.theta - key.mapped_pose.theta)) < move_theta) {
       continue;
     }
     update_map(map_, key.points, key.mapped_pose, config_.update, /*remove=*/true, false);

@@ -241,14 +241,20 @@ Applied reject(std::string* error, std::string what) {
 }
 }  // namespace
 
-Applied MapReplica::apply(const msg::MapTile& t, std::string* error) {
-  if (t.protocol() != msg::kProtocolVersion) {
-    return reject(error, "protocol " + std::to_string(t.protocol()) + ", expected " +
+template <class Msg>
+std::optional<Applied> MapReplica::screen(const Msg& m, std::string* error) const {
+  if (m.protocol() != msg::kProtocolVersion) {
+    return reject(error, "protocol " + std::to_string(m.protocol()) + ", expected " +
                              std::to_string(msg::kProtocolVersion));
   }
+  if (!map_id_.empty() && m.map_id().to_string() != map_id_) return Applied::kIgnored;
+  if (m.epoch() < epoch_) return Applied::kIgnored;
+  return std::nullopt;
+}
+
+Applied MapReplica::apply(const msg::MapTile& t, std::string* error) {
+  if (const auto verdict = screen(t, error)) return *verdict;
   const std::string id = t.map_id().to_string();
-  if (!map_id_.empty() && id != map_id_) return Applied::kIgnored;
-  if (t.epoch() < epoch_) return Applied::kIgnored;
   // A tile of a newer epoch (or the first one) starts a map: only the ranges are checked.
   const bool fresh = !map_ || t.epoch() > epoch_;
   if (std::string e = check_layout(t.cell_size(), t.tile_edge(), !fresh); !e.empty()) {
@@ -278,13 +284,7 @@ Applied MapReplica::apply(const msg::MapTile& t, std::string* error) {
 }
 
 Applied MapReplica::apply(const msg::MapTileDelta& d, std::string* error) {
-  if (d.protocol() != msg::kProtocolVersion) {
-    return reject(error, "protocol " + std::to_string(d.protocol()) + ", expected " +
-                             std::to_string(msg::kProtocolVersion));
-  }
-  const std::string id = d.map_id().to_string();
-  if (!map_id_.empty() && id != map_id_) return Applied::kIgnored;
-  if (d.epoch() < epoch_) return Applied::kIgnored;
+  if (const auto verdict = screen(d, error)) return *verdict;
   const bool same_map = map_ && d.epoch() == epoch_;
   if (std::string e = check_layout(d.cell_size(), d.tile_edge(), same_map); !e.empty()) {
     return reject(error, e);
@@ -316,13 +316,8 @@ Applied MapReplica::apply(const msg::MapTileDelta& d, std::string* error) {
 }
 
 Applied MapReplica::apply(const msg::MapMeta& m, std::string* error) {
-  if (m.protocol() != msg::kProtocolVersion) {
-    return reject(error, "protocol " + std::to_string(m.protocol()) + ", expected " +
-                             std::to_string(msg::kProtocolVersion));
-  }
+  if (const auto verdict = screen(m, error)) return *verdict;
   const std::string id = m.map_id().to_string();
-  if (!map_id_.empty() && id != map_id_) return Applied::kIgnored;
-  if (m.epoch() < epoch_) return Applied::kIgnored;
   const bool new_epoch = m.epoch() > epoch_ || !map_;
   if (std::string e = check_layout(m.cell_size(), m.tile_edge(), !new_epoch); !e.empty()) {
     return reject(error, e);

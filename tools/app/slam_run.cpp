@@ -11,34 +11,17 @@
 
 namespace esfleet::app {
 
-SlamRunStats run_slam(Slam& slam, const std::vector<LaserScan>& scans,
-                      const std::atomic<bool>* stop, const SlamProgress& progress) {
-  using Clock = std::chrono::steady_clock;
-  SlamRunStats stats;
-  stats.ms_per_scan.reserve(scans.size());
-  const auto start = Clock::now();
-  for (const LaserScan& scan : scans) {
-    if (stop != nullptr && stop->load()) {
-      stats.interrupted = true;
-      break;
-    }
-    const auto t0 = Clock::now();
-    const SlamStep step = slam.process(scan);
-    const auto t1 = Clock::now();
-    stats.ms_per_scan.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
-    ++stats.scans;
-    stats.inserted += step.inserted ? 1 : 0;
-    stats.search_ms.push_back(step.search_ms);
-    if (step.inserted) stats.update_ms.push_back(step.update_ms);
-    if (stats.scans > 1) {
-      const float a = step.fitness.agreement();
-      stats.agreement.push_back(a);
-      if (a < 0.5f) ++stats.weak_matches;
-    }
-    if (progress) progress(stats.scans, scans.size(), step);
+void SlamRunStats::record(const SlamStep& step, double ms) {
+  ms_per_scan.push_back(ms);
+  ++scans;
+  inserted += step.inserted ? 1 : 0;
+  search_ms.push_back(step.search_ms);
+  if (step.inserted) update_ms.push_back(step.update_ms);
+  if (scans > 1) {
+    const float a = step.fitness.agreement();
+    agreement.push_back(a);
+    if (a < 0.5f) ++weak_matches;
   }
-  stats.wall_s = std::chrono::duration<double>(Clock::now() - start).count();
-  return stats;
 }
 
 Summary summarize(std::vector<double> v) {

@@ -1,6 +1,5 @@
 #pragma once
-// Running the SLAM over a whole recorded log and writing its results: shared by the leader's
-// offline mode and the benchmarks.
+// Statistics of a SLAM run and writing its results (map files, trajectory, stats.json).
 
 #include <atomic>
 #include <functional>
@@ -24,16 +23,12 @@ struct SlamRunStats {
   /// occupied ones (FitnessValue::agreement() < 0.5): the search is likely stuck or lost.
   std::size_t weak_matches = 0;
   std::vector<double> agreement;  ///< per scan (after the first)
+
+  /// Adds one processed scan: its step and the wall time of Slam::process.
+  void record(const SlamStep& step, double ms);
   double wall_s = 0.0;
   bool interrupted = false;
 };
-
-/// Progress callback: (scans done, scans total, last step).
-using SlamProgress = std::function<void(std::size_t, std::size_t, const SlamStep&)>;
-
-/// Feeds `scans` through `slam` in order; stops early (interrupted = true) when `stop` is set.
-SlamRunStats run_slam(Slam& slam, const std::vector<LaserScan>& scans,
-                      const std::atomic<bool>* stop = nullptr, const SlamProgress& progress = {});
 
 /// Median, p95, p99, max and mean of a sample (milliseconds in, same out); zeros when empty.
 struct Summary {

@@ -99,6 +99,10 @@ class MapReplica {
   bool complete() const;
 
  private:
+  /// The checks every message starts with: protocol version (kRejected), another map id or an
+  /// older epoch (kIgnored); nothing when the message may go on.
+  template <class Msg>
+  std::optional<Applied> screen(const Msg& m, std::string* error) const;
   /// Starts (or restarts, on a newer epoch) the map with this layout.
   void reset(std::uint32_t epoch, float cell_size, int tile_edge);
   /// Checks layout fields shared by tiles and summaries (ranges, and equality with the current
