@@ -132,17 +132,6 @@ class Slam {
   const std::optional<LoopEvent>& last_loop() const { return last_loop_; }
 
  private:
-  /// The pose the search is centred on; `alternatives` receives the motion hypotheses.
-  Pose2 predict(const LaserScan& scan, std::vector<Pose2>* alternatives) const;
-  FitnessOptions fitness_options(bool interpolate) const;
-  bool use_prior() const {
-    return config_.prior_sigma_xy > 0.0 && config_.prior_sigma_theta_deg > 0.0;
-  }
-  float prior(const Pose2& p, const std::vector<Pose2>& hypotheses) const;
-  EsResult search(const ScanPoints& points, const Pose2& centre,
-                  const std::vector<Pose2>& hypotheses, const std::vector<Pose2>& prior_hypotheses);
-  EsResult polish(const ScanPoints& points, const Pose2& start,
-                  const std::vector<Pose2>& hypotheses) const;
   /// Adds the scan just inserted as a key scan (graph node + edge to the previous one) and
   /// tries a loop closure; returns true when the graph was re-optimised.
   bool add_key_scan(const ScanPoints& points, const Pose2& pose, double stamp);

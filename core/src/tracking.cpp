@@ -1,0 +1,155 @@
+#include "esfleet/core/tracking.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace esfleet {
+
+namespace {
+
+Correction correction_between(const Pose2& centre, const Pose2& p) {
+  return {p.x - centre.x, p.y - centre.y, normalize_angle(p.theta - centre.theta)};
+}
+
+bool use_prior(const SlamConfig& c) {
+  return c.prior_sigma_xy > 0.0 && c.prior_sigma_theta_deg > 0.0;
+}
+
+/// A multi-modal motion prior: the best of the Gaussians around each hypothesis.
+float prior(const SlamConfig& c, const Pose2& p, const std::vector<Pose2>& hypotheses) {
+  const double sxy = c.prior_sigma_xy;
+  const double sth = deg_to_rad(c.prior_sigma_theta_deg);
+  double best = 0.0;
+  for (const Pose2& h : hypotheses) {
+    const double dx = (p.x - h.x) / sxy, dy = (p.y - h.y) / sxy;
+    const double dt = normalize_angle(p.theta - h.theta) / sth;
+    best = std::max(best, std::exp(-0.5 * (dx * dx + dy * dy + dt * dt)));
+  }
+  return static_cast<float>(best);
+}
+
+EsResult search(const SlamConfig& c, const EvolutionStrategy& es, Rng& rng, const GridMap& map,
+                const ScanPoints& points, const Pose2& centre,
+                const std::vector<Pose2>& hypotheses,
+                const std::vector<Pose2>& prior_hypotheses) {
+  std::vector<Correction> extra;
+  for (std::size_t h = 1; h < hypotheses.size(); ++h) {
+    extra.push_back(correction_between(centre, hypotheses[h]));
+  }
+  const auto initial = make_initial_population(c.es.mu, c.init_sigma_xy,
+                                               deg_to_rad(c.init_sigma_theta_deg), rng, extra);
+  const FitnessEvaluator eval(map, points,
+                              slam_fitness_options(c, c.interpolation == Interpolation::kAll));
+  if (!use_prior(c)) return es.search(eval, centre, initial, rng);
+  EsResult r = es.search_with(
+      [&](const Pose2& p) { return eval.fitness(p) * prior(c, p, prior_hypotheses); }, centre,
+      initial, rng);
+  r.value = eval.evaluate(r.pose);
+  return r;
+}
+
+EsResult polish(const SlamConfig& c, const GridMap& map, const ScanPoints& points,
+                const Pose2& start, const std::vector<Pose2>& hypotheses) {
+  const FitnessEvaluator eval(map, points,
+                              slam_fitness_options(c, c.interpolation != Interpolation::kNone));
+  const bool with_prior = use_prior(c);
+  EsResult r = refine_pose_with(
+      [&](const Pose2& p) {
+        return eval.fitness(p) * (with_prior ? prior(c, p, hypotheses) : 1.0f);
+      },
+      start, 0.02, deg_to_rad(0.5), 0.001);
+  r.value = eval.evaluate(r.pose);
+  return r;
+}
+
+}  // namespace
+
+FitnessOptions slam_fitness_options(const SlamConfig& config, bool interpolate) {
+  FitnessOptions o;
+  o.use_penalty = config.use_penalty;
+  o.interpolate = interpolate;
+  return o;
+}
+
+Pose2 predict_pose(const SlamConfig& config, const MotionState& motion, const LaserScan& scan,
+                   std::vector<Pose2>* alternatives) {
+  const Pose2& prev = motion.last.pose;
+  std::optional<Pose2> odom, velocity, step;
+  if (config.use_odometry && scan.odometry && motion.odometry) {
+    odom = prev.compose(scan.odometry->relative_to(*motion.odometry));
+  }
+  if (motion.previous) {
+    const TimedPose& a = *motion.previous;
+    const TimedPose& b = motion.last;
+    const Pose2 delta = b.pose.relative_to(a.pose);
+    const double dt_prev = b.stamp - a.stamp;
+    const double dt = scan.stamp - b.stamp;
+    // Scale the last motion by the time ratio; fall back to one step when stamps are odd.
+    double k = (dt_prev > 1e-6 && dt > 0.0) ? dt / dt_prev : 1.0;
+    k = std::clamp(k, 0.0, 3.0);
+    velocity = prev.compose({delta.x * k, delta.y * k, delta.theta * k});
+    // Log stamps can jitter while the robot moves a steady distance per scan (fr079: the time
+    // ratio is off by more than 1.5x for 43 % of scans, the motion ratio stays near 1), so the
+    // unscaled last step is a hypothesis of its own when the two differ.
+    if (std::abs(k - 1.0) > 0.2) step = prev.compose(delta);
+  }
+  Pose2 centre = prev;
+  if (odom) {
+    centre = *odom;
+  } else if (config.prediction == MotionPrediction::kConstantVelocity && velocity) {
+    centre = *velocity;
+  }
+  if (alternatives != nullptr) {
+    // With odometry the previous pose is a poor hypothesis: in a corridor it fits as well as
+    // the true pose and would let the search stop the robot.
+    if (!odom) alternatives->push_back(prev);
+    if (velocity) alternatives->push_back(*velocity);
+    if (step) alternatives->push_back(*step);
+    if (odom) alternatives->push_back(*odom);
+    if (!odom && config.turn_hypotheses) {
+      // Laser only, turning: the robot may speed up, slow down or reverse its turn (S-curves
+      // reverse at 8 deg/scan on fr079, so constant velocity is then 16 deg off). Add the
+      // constant-velocity pose turned by +-1 and +-2 times the last turn.
+      for (const auto& base : {velocity, step}) {
+        if (!base) continue;
+        const double turn = normalize_angle(base->theta - prev.theta);
+        if (std::abs(turn) <= deg_to_rad(1.0)) continue;
+        for (const double f : {-2.0, -1.0, 1.0, 2.0}) {
+          alternatives->push_back({base->x, base->y, normalize_angle(base->theta + f * turn)});
+        }
+      }
+    }
+  }
+  return centre;
+}
+
+TrackResult track_scan(const SlamConfig& config, const EvolutionStrategy& es, Rng& rng,
+                       const GridMap& map, const ScanPoints& points, const LaserScan& scan,
+                       const MotionState& motion) {
+  TrackResult out;
+  std::vector<Pose2> alternatives;
+  out.predicted = predict_pose(config, motion, scan, &alternatives);
+  // Hypotheses: the centre first, then the other motion hypotheses when switched on.
+  std::vector<Pose2> hypotheses{out.predicted};
+  if (config.motion_hypotheses) {
+    hypotheses.insert(hypotheses.end(), alternatives.begin(), alternatives.end());
+  }
+  // The prior's hypotheses: laser only, "the robot stopped" (the previous pose) stays in the
+  // population but gets no prior weight while another hypothesis says it moves: in a
+  // featureless corridor it would otherwise hold the robot back.
+  std::vector<Pose2> prior_hypotheses;
+  const Pose2& last = motion.last.pose;
+  for (const Pose2& h : hypotheses) {
+    if (config.prior_on_stop || config.use_odometry || !(h == last)) {
+      prior_hypotheses.push_back(h);
+    }
+  }
+  if (prior_hypotheses.empty()) prior_hypotheses = hypotheses;
+  out.result = search(config, es, rng, map, points, out.predicted, hypotheses, prior_hypotheses);
+  if (config.refine) {
+    out.result = polish(config, map, points, out.result.pose, prior_hypotheses);
+  }
+  return out;
+}
+
+}  // namespace esfleet
