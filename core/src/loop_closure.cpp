@@ -16,6 +16,7 @@ void LoopClosureConfig::validate() const {
     }
   };
   if (every < 1) throw std::invalid_argument("loop.every must be >= 1");
+  if (cooldown < 0) throw std::invalid_argument("loop.cooldown must be >= 0");
   if (max_submap_scans < 1) throw std::invalid_argument("loop.max_submap_scans must be >= 1");
   positive(min_travel, "min_travel");
   positive(search_radius, "search_radius");

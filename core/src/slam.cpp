@@ -127,6 +127,10 @@ bool Slam::add_key_scan(const ScanPoints& points, const Pose2& pose, double stam
     graph_.add_edge(e);
   }
   if (k == 0 || k % static_cast<std::size_t>(config_.loop.every) != 0) return false;
+  // After an accepted closure the graph is consistent here: wait before the next attempt.
+  if (last_loop_ && k - last_loop_->key < static_cast<std::size_t>(config_.loop.cooldown)) {
+    return false;
+  }
   const auto match = find_loop_closure(
       keys_, graph_.nodes(), points, pose, path_length_, config_.loop, config_.map, config_.update,
       slam_fitness_options(config_, config_.interpolation != Interpolation::kNone));

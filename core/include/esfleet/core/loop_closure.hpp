@@ -31,6 +31,9 @@ struct KeyScan {
 struct LoopClosureConfig {
   bool enabled = true;
   int every = 5;                   ///< attempt once per this many key scans
+  /// No attempt for this many key scans after an accepted closure: a robot going round a
+  /// mapped place would otherwise close (and re-write the map) every few metres.
+  int cooldown = 20;
   double min_travel = 10.0;        ///< old = at least this far back along the path, metres
   double search_radius = 6.0;      ///< old scans within this of the current estimate trigger
   double submap_radius = 10.0;     ///< old scans within this form the submap, metres
@@ -53,10 +56,11 @@ struct LoopClosureConfig {
   double sigma_theta_deg = 1.0;  ///< loop edge standard deviation, degrees
   double huber = 2.0;            ///< Huber threshold of loop edges (whitened)
   /// After optimising, a key scan is re-written into the map only if its pose moved at least
-  /// this much: smaller moves do not change the map's use and would make the leader republish
-  /// tiles for nothing.
-  double move_min_xy = 0.005;        ///< metres
-  double move_min_theta_deg = 0.05;  ///< degrees
+  /// this much: smaller moves (under half a 5 cm cell) barely change the map but make the
+  /// leader republish tiles (fr079: 0.5 cm / 0.05 deg sent 22 MB of tile deltas after loop
+  /// closures, 2 cm / 0.2 deg 15 MB at the same accuracy; docs/benchmarks.md).
+  double move_min_xy = 0.02;         ///< metres
+  double move_min_theta_deg = 0.2;   ///< degrees
   void validate() const;
 };
 
