@@ -189,12 +189,12 @@ int main(int argc, char** argv) {
   // Destroyed in reverse: the scan source (its reader) and the publisher before the node.
   std::unique_ptr<dds::Node> node;
   std::unique_ptr<leader::MapPublisher> publisher;
-  std::unique_ptr<leader::ScanSource> source;
-  leader::TopicScanSource* topic = nullptr;
+  std::unique_ptr<scans::ScanSource> source;
+  scans::TopicScanSource* topic = nullptr;
   if (!log_path.empty()) {
     try {
-      source = std::make_unique<leader::LogScanSource>(
-          leader::read_log(log_path, reader_options, max_scans, config.use_odometry, g_stop),
+      source = std::make_unique<scans::LogScanSource>(
+          scans::read_log(log_path, reader_options, max_scans, config.use_odometry, g_stop),
           o.rate);
     } catch (const std::exception& e) {
       spdlog::error("{}", e.what());
@@ -219,7 +219,7 @@ int main(int argc, char** argv) {
                                    : TileEncoding::kMedZlib,
           leader::DeltaPolicy{o.full_every, o.full_period});
       if (!scan_robot.empty()) {
-        auto t = std::make_unique<leader::TopicScanSource>(*node, scan_robot, o.idle_exit);
+        auto t = std::make_unique<scans::TopicScanSource>(*node, scan_robot, o.idle_exit);
         topic = t.get();
         source = std::move(t);
       }
@@ -246,7 +246,7 @@ int main(int argc, char** argv) {
     publisher->publish(slam.map(), slam.trajectory().back(), fitness, complete,
                        static_cast<std::uint32_t>(slam.scans_processed()), params_dump);
   };
-  const auto stats = leader::run_slam(
+  const auto stats = scans::run_slam(
       slam, *source, max_scans, g_stop,
       [&](const LaserScan& scan, const SlamStep& step, std::size_t done) {
         if (!first_stamp) first_stamp = scan.stamp;
@@ -272,7 +272,7 @@ int main(int argc, char** argv) {
 
   nlohmann::json extra;
   if (topic) {
-    const leader::TopicScanStats t = topic->stats();
+    const scans::TopicScanStats t = topic->stats();
     extra["scan_topic"] = {{"robot_id", scan_robot},      {"received", t.received},
                            {"malformed", t.malformed},    {"other_robots", t.other_robots},
                            {"seq_gaps", t.seq_gaps},      {"seq_restarts", t.seq_restarts},

@@ -1,5 +1,5 @@
 #pragma once
-// Where the leader's scans come from, and the one loop that runs them through the SLAM.
+// Where scans come from (leader and follower), and the loop that runs them through the SLAM.
 //
 // A ScanSource hands out scans in order on the application thread: LogScanSource from a
 // recorded log (optionally paced at the recorded speed), TopicScanSource from the DDS scan topic
@@ -24,7 +24,7 @@
 #include "esfleet/core/slam.hpp"
 #include "esfleet/dds/reader.hpp"
 
-namespace esfleet::leader {
+namespace esfleet::scans {
 
 class ScanSource {
  public:
@@ -37,6 +37,9 @@ class ScanSource {
   virtual bool ended() const = 0;
   /// How many scans the source holds in all; 0 = not known in advance.
   virtual std::size_t total() const { return 0; }
+  /// True when next() would return at once (a scan is due or waiting, or the source has ended):
+  /// lets a loop that also serves DDS poll the source without blocking.
+  virtual bool ready() const = 0;
 };
 
 /// The scans of a log in file order: the first max_scans if > 0, fewer if `stop` is set while
@@ -54,8 +57,12 @@ class LogScanSource : public ScanSource {
   std::optional<LaserScan> next(const std::atomic<bool>& stop) override;
   bool ended() const override { return next_ >= scans_.size(); }
   std::size_t total() const override { return scans_.size(); }
+  bool ready() const override;
 
  private:
+  /// When scan `i` is due (rate > 0; start_ set).
+  std::chrono::steady_clock::time_point due(std::size_t i) const;
+
   std::vector<LaserScan> scans_;
   double rate_;
   std::size_t next_ = 0;
@@ -84,6 +91,7 @@ class TopicScanSource : public ScanSource {
   std::optional<LaserScan> next(const std::atomic<bool>& stop) override;
   /// True once next() ended because no scan arrived for idle_exit_s.
   bool ended() const override { return idle_; }
+  bool ready() const override;
   TopicScanStats stats() const;
   int matched_writers() const { return reader_.matched_writers(); }
 
@@ -123,4 +131,4 @@ using StepCallback = std::function<void(const LaserScan&, const SlamStep&, std::
 app::SlamRunStats run_slam(Slam& slam, ScanSource& source, std::size_t max_scans,
                            const std::atomic<bool>& stop, const StepCallback& on_step = {});
 
-}  // namespace esfleet::leader
+}  // namespace esfleet::scans

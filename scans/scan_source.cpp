@@ -9,7 +9,7 @@
 
 #include "esfleet/dds/map_convert.hpp"
 
-namespace esfleet::leader {
+namespace esfleet::scans {
 
 namespace {
 /// How often blocked waits look at the stop flag.
@@ -39,13 +39,22 @@ std::vector<LaserScan> read_log(const std::string& path, const CarmenReaderOptio
 LogScanSource::LogScanSource(std::vector<LaserScan> scans, double rate)
     : scans_(std::move(scans)), rate_(rate) {}
 
+std::chrono::steady_clock::time_point LogScanSource::due(std::size_t i) const {
+  const double due_s = (scans_[i].stamp - scans_.front().stamp) / rate_;
+  return start_ + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                      std::chrono::duration<double>(due_s));
+}
+
+bool LogScanSource::ready() const {
+  return next_ == 0 || next_ >= scans_.size() || rate_ <= 0.0 ||
+         std::chrono::steady_clock::now() >= due(next_);
+}
+
 std::optional<LaserScan> LogScanSource::next(const std::atomic<bool>& stop) {
   if (next_ >= scans_.size() || stop.load()) return std::nullopt;
   if (next_ == 0) start_ = std::chrono::steady_clock::now();
   if (rate_ > 0.0) {
-    const double due_s = (scans_[next_].stamp - scans_.front().stamp) / rate_;
-    const auto due = start_ + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                  std::chrono::duration<double>(due_s));
+    const auto due = this->due(next_);
     while (std::chrono::steady_clock::now() < due) {
       if (stop.load()) return std::nullopt;
       std::this_thread::sleep_until(std::min(due, std::chrono::steady_clock::now() + kPoll));
@@ -71,6 +80,13 @@ void TopicScanSource::on_message(const msg::LaserScanMsg& m) {
   max_queue_ = std::max(max_queue_, queue_.size());
   last_arrival_ = Clock::now();
   arrived_.notify_one();
+}
+
+bool TopicScanSource::ready() const {
+  std::lock_guard lock(mutex_);
+  return !queue_.empty() ||
+         (idle_exit_s_ > 0.0 && last_arrival_ &&
+          Clock::now() - *last_arrival_ >= std::chrono::duration<double>(idle_exit_s_));
 }
 
 std::optional<LaserScan> TopicScanSource::next(const std::atomic<bool>& stop) {
@@ -156,4 +172,4 @@ app::SlamRunStats run_slam(Slam& slam, ScanSource& source, std::size_t max_scans
   return stats;
 }
 
-}  // namespace esfleet::leader
+}  // namespace esfleet::scans
