@@ -27,7 +27,7 @@ pid_a=$!
   >"$work/leader.log" 2>&1 &
 pid_leader=$!
 echo "mapping $log over DDS domain $domain ($profile) ..." >&2
-until grep -q "log ended" "$work/leader.log"; do
+until grep -qs "log ended" "$work/leader.log"; do
   kill -0 "$pid_leader" 2>/dev/null || { tail "$work/leader.log" >&2; exit 1; }
   sleep 0.5
 done

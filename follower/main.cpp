@@ -1,21 +1,32 @@
 // esfleet-follower: joins a fleet's DDS domain, rebuilds the leader's shared map from its tiles
-// (counters bit-identical to the leader's) and saves it. Localisation in the shared map comes
-// in a later step.
+// (counters bit-identical to the leader's) and, given its own scans (--log or --scan-topic),
+// finds its pose in that map with no prior knowledge (global localisation) or around a hint,
+// then tracks it and publishes it on the pose topic with its status.
 
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
+#include <unistd.h>
 #include <CLI/CLI.hpp>
 #include <atomic>
 #include <chrono>
 #include <csignal>
+#include <filesystem>
 #include <nlohmann/json.hpp>
+#include <optional>
 
+#include "app/localise_params.hpp"
+#include "app/slam_params.hpp"
 #include "app/slam_run.hpp"
+#include "esfleet/core/localizer.hpp"
 #include "esfleet/core/map_io.hpp"
 #include "esfleet/core/tile_codec.hpp"
+#include "esfleet/core/trajectory_io.hpp"
+#include "esfleet/dds/map_convert.hpp"
 #include "esfleet/dds/node.hpp"
+#include "esfleet/dds/writer.hpp"
 #include "map_follower.hpp"
+#include "scan_source.hpp"
 
 namespace {
 
@@ -23,6 +34,37 @@ std::atomic<bool> g_stop{false};
 std::atomic<bool> g_save{false};
 extern "C" void on_signal(int) { g_stop.store(true); }
 extern "C" void on_save(int) { g_save.store(true); }
+
+std::uint8_t status_of(esfleet::LocalizerState s) {
+  using esfleet::LocalizerState;
+  switch (s) {
+    case LocalizerState::kWaitingForMap:
+      return esfleet::msg::kStatusWaitingForMap;
+    case LocalizerState::kLocalising:
+      return esfleet::msg::kStatusLocalising;
+    case LocalizerState::kTracking:
+      return esfleet::msg::kStatusTracking;
+    case LocalizerState::kLost:
+      return esfleet::msg::kStatusLost;
+  }
+  return esfleet::msg::kStatusLost;
+}
+
+/// What the follower's localisation did, for stats.json.
+struct LocaliseStats {
+  std::size_t scans = 0;
+  std::size_t scans_waiting_for_map = 0;
+  std::size_t declarations = 0;
+  std::size_t lost_events = 0;
+  std::size_t global_searches = 0;
+  double cpu_s_total = 0.0;
+  double cpu_s_to_first_pose = -1.0;  ///< CPU from the first scan with a map to the declaration
+  double cpu_s_localising = 0.0;      ///< running sum while not tracking
+  std::size_t scans_to_first_pose = 0;
+  std::size_t scans_localising = 0;
+  std::optional<esfleet::TimedPose> first_pose;
+  std::vector<double> tracking_cpu_ms;
+};
 
 }  // namespace
 
@@ -34,25 +76,71 @@ int main(int argc, char** argv) {
 
   CLI::App cli{
       "esfleet-follower: receives the leader's shared map over DDS (topics esfleet/map/tiles, "
-      "esfleet/map/meta) and keeps a copy whose counters equal the leader's.\n"
+      "esfleet/map/tile_deltas, esfleet/map/meta) and keeps a copy whose counters equal the "
+      "leader's. Given its own scans (--log or --scan-topic) it finds its pose in that map with "
+      "the (mu+1)-ES, globally (no hint) or around --hint, then tracks it, relocalises when "
+      "lost, and publishes pose and status on esfleet/robots/pose.\n"
       "With --save-map DIR it writes DIR/map.pgm, map.yaml (ROS map_server), map.png, "
       "map.digest (per-tile counter digests) and stats.json at exit, and on SIGUSR1."};
   int domain = 0;
-  std::string profile, map_id, save_dir;
-  bool exit_when_complete = false;
-  double timeout = 0.0;
+  std::string profile, map_id, save_dir, log_path, scan_robot, hint_text, trajectory_path;
+  std::string robot_id = "follower";
+  bool exit_when_complete = false, wait_complete = false;
+  double timeout = 0.0, rate = 1.0, idle_exit = 0.0;
+  std::size_t max_scans = 0, first_scan = 0;
   cli.add_option("--domain", domain, "DDS domain id (0-232)")->capture_default_str();
   cli.add_option("--profile", profile,
                  "Fast DDS XML profile (deploy/fastdds/*.xml); default: Fast DDS defaults");
   cli.add_option("--map-id", map_id, "map to follow (default: the first one seen)");
   cli.add_option("--save-map", save_dir, "directory to save the map into (at exit, SIGUSR1)");
   cli.add_flag("--exit-when-complete", exit_when_complete,
-               "exit (saving) once the leader's map is final and every tile is here");
+               "without scans: exit (saving) once the leader's map is final and every tile is "
+               "here");
   cli.add_option("--timeout", timeout, "stop after this many seconds (0 = no limit)")
       ->capture_default_str();
+  auto* log_opt = cli.add_option("--log", log_path,
+                                 "this robot's scans from a CARMEN log (localise in the map)");
+  cli.add_option("--scan-topic", scan_robot,
+                 "this robot's scans from the DDS scan topic, published under this robot id")
+      ->excludes(log_opt);
+  cli.add_option("--rate", rate,
+                 "--log: replay speed (1 = recorded speed, 0 = as fast as possible)")
+      ->capture_default_str();
+  cli.add_option("--max-scans", max_scans, "--log: read the first N scans (0 = all)")
+      ->capture_default_str();
+  cli.add_option("--first-scan", first_scan,
+                 "--log: start at this scan (skip the ones before; counted from 0)")
+      ->capture_default_str();
+  cli.add_option("--idle-exit", idle_exit,
+                 "--scan-topic: end once no scan arrived for this many seconds (0 = never)")
+      ->capture_default_str();
+  cli.add_option("--robot-id", robot_id, "this robot's id on the pose topic")
+      ->capture_default_str();
+  cli.add_option("--hint", hint_text,
+                 "start pose guess x,y,theta_deg[,radius_m[,angle_deg]] (default radius 1 m, "
+                 "angle 30 deg); without it the search is global");
+  cli.add_flag("--wait-complete", wait_complete,
+               "hold the scans until the leader's map is complete (tests, benchmarks)");
+  cli.add_option("--trajectory", trajectory_path,
+                 "write the tracked poses (stamp x y theta per line) to this file at exit");
+  app::ParamTable params;
+  LocalizerConfig lconfig;
+  CarmenReaderOptions reader_options;
+  app::add_slam_params(params, &lconfig.slam, &reader_options);
+  app::add_localise_params(params, &lconfig);
+  params.bind(cli, "Localisation parameters (tracking uses the SLAM's)");
   CLI11_PARSE(cli, argc, argv);
-  if (timeout < 0.0) {
-    spdlog::error("--timeout must be >= 0");
+  try {
+    params.apply();
+    if (!hint_text.empty()) lconfig.hint = app::parse_hint(hint_text);
+    lconfig.seed = lconfig.slam.seed;
+    lconfig.validate();
+  } catch (const std::exception& e) {
+    spdlog::error("{}", e.what());
+    return 2;
+  }
+  if (timeout < 0.0 || rate < 0.0 || idle_exit < 0.0) {
+    spdlog::error("--timeout, --rate and --idle-exit must be >= 0");
     return 2;
   }
 
@@ -62,14 +150,46 @@ int main(int argc, char** argv) {
 
   std::unique_ptr<dds::Node> node;
   std::unique_ptr<follower::MapFollower> follow;
+  std::unique_ptr<scans::ScanSource> source;
+  std::unique_ptr<dds::PoseWriter> pose_writer;
+  scans::TopicScanSource* topic = nullptr;
+  try {
+    if (!log_path.empty()) {
+      std::vector<LaserScan> scans =
+          scans::read_log(log_path, reader_options, max_scans, lconfig.slam.use_odometry, g_stop);
+      if (first_scan >= scans.size()) {
+        throw std::invalid_argument("--first-scan " + std::to_string(first_scan) + ": " + log_path +
+                                    " has only " + std::to_string(scans.size()) + " scans" +
+                                    (max_scans > 0 ? " (with --max-scans)" : ""));
+      }
+      scans.erase(scans.begin(), scans.begin() + static_cast<std::ptrdiff_t>(first_scan));
+      source = std::make_unique<scans::LogScanSource>(std::move(scans), rate);
+    }
+  } catch (const std::exception& e) {
+    spdlog::error("{}", e.what());
+    return 2;
+  }
   try {
     node = std::make_unique<dds::Node>(dds::NodeOptions{domain, profile, "esfleet-follower"});
-    follow = std::make_unique<follower::MapFollower>(*node, map_id);
+    GridMapConfig local;
+    local.pyramid_levels = std::max(lconfig.coarse_level, lconfig.mid_level);
+    follow = std::make_unique<follower::MapFollower>(*node, map_id, local);
+    if (!scan_robot.empty()) {
+      auto t = std::make_unique<scans::TopicScanSource>(*node, scan_robot, idle_exit);
+      topic = t.get();
+      source = std::move(t);
+    }
+    if (source) pose_writer = std::make_unique<dds::PoseWriter>(*node);
   } catch (const std::exception& e) {
     spdlog::error("DDS: {}", e.what());
     return 2;
   }
   spdlog::info("following map '{}' on DDS domain {}", map_id.empty() ? "(any)" : map_id, domain);
+  if (source) {
+    spdlog::info("robot '{}': scans from {}; {} localisation", robot_id,
+                 log_path.empty() ? "scan topic of '" + scan_robot + "'" : log_path,
+                 lconfig.hint ? "hinted" : "global");
+  }
 
   const auto start = Clock::now();
   const auto seconds_since_start = [&] {
@@ -77,10 +197,50 @@ int main(int argc, char** argv) {
   };
   double first_tile_s = -1.0, complete_s = -1.0;
   auto last_report = start;
-  bool timed_out = false;
+  bool timed_out = false, scans_ended = false;
+  Localizer localizer(lconfig);
+  LocaliseStats ls;
+  std::vector<TimedPose> trajectory;
+  LocalizerStep last_step;
+  std::optional<std::uint32_t> epoch;
+
+  auto localise_json = [&]() -> nlohmann::json {
+    const app::Summary tr = app::summarize(ls.tracking_cpu_ms);
+    nlohmann::json j = {{"robot_id", robot_id},
+                        {"state", to_string(localizer.state())},
+                        {"scans", ls.scans},
+                        {"scans_waiting_for_map", ls.scans_waiting_for_map},
+                        {"declarations", ls.declarations},
+                        {"lost_events", ls.lost_events},
+                        {"global_searches", ls.global_searches},
+                        {"cpu_s_total", ls.cpu_s_total},
+                        {"cpu_s_to_first_pose", ls.cpu_s_to_first_pose},
+                        {"scans_to_first_pose", ls.scans_to_first_pose},
+                        {"tracked_scans", trajectory.size()},
+                        {"tracking_cpu_ms_median", tr.median},
+                        {"tracking_cpu_ms_p95", tr.p95}};
+    if (ls.first_pose) {
+      j["first_pose"] = {{"stamp", ls.first_pose->stamp},
+                         {"x", ls.first_pose->pose.x},
+                         {"y", ls.first_pose->pose.y},
+                         {"theta", ls.first_pose->pose.theta}};
+    }
+    return j;
+  };
 
   auto save = [&](const char* why) {
-    if (save_dir.empty()) return true;
+    bool ok = true;
+    if (!trajectory_path.empty()) {
+      try {
+        const std::filesystem::path parent = std::filesystem::path(trajectory_path).parent_path();
+        if (!parent.empty()) std::filesystem::create_directories(parent);
+        write_trajectory(trajectory_path, trajectory);
+      } catch (const std::exception& e) {
+        spdlog::error("writing the trajectory {}: {}", trajectory_path, e.what());
+        ok = false;
+      }
+    }
+    if (save_dir.empty()) return ok;
     if (!follow->replica().has_map()) {
       spdlog::warn("no map received yet: nothing to save in {}", save_dir);
       return false;
@@ -88,11 +248,11 @@ int main(int argc, char** argv) {
     try {
       const GridMap& map = follow->replica().map();
       save_ros_map(map, save_dir, "map");
-      save_map_png(map, {}, save_dir + "/map.png");
+      save_map_png(map, trajectory, save_dir + "/map.png");
       write_file_atomically(save_dir + "/map.digest", map_digest(map));
       const auto& s = follow->stats();
       const app::Summary lat = app::summarize(s.latency_ms);
-      const nlohmann::json j = {
+      nlohmann::json j = {
           {"map_id", follow->replica().map_id()},
           {"epoch", follow->replica().epoch()},
           {"complete", follow->replica().complete()},
@@ -118,23 +278,88 @@ int main(int argc, char** argv) {
           {"time_to_complete_s", complete_s},
           {"saved_because", why},
       };
+      if (source) j["localisation"] = localise_json();
       write_file_atomically(save_dir + "/stats.json", j.dump(2) + "\n");
       spdlog::info("saved the map ({} tiles) to {}", map.tile_count(), save_dir);
-      return true;
+      return ok;
     } catch (const std::exception& e) {
       spdlog::error("saving the map to {}: {}", save_dir, e.what());
       return false;
     }
   };
 
+  auto process_scan = [&](const LaserScan& scan) {
+    ++ls.scans;
+    const dds::MapReplica& replica = follow->replica();
+    if (replica.has_map() && epoch && replica.epoch() != *epoch) {
+      spdlog::warn("the leader's map changed (epoch {} -> {}): localising afresh", *epoch,
+                   replica.epoch());
+      localizer.reset();
+    }
+    if (replica.has_map()) epoch = replica.epoch();
+    static const GridMap kEmpty;
+    const LocalizerStep step = localizer.process(replica.has_map() ? replica.map() : kEmpty, scan);
+    last_step = step;
+    ls.cpu_s_total += step.cpu_ms * 1e-3;
+    if (step.global_search) ++ls.global_searches;
+    if (step.state == LocalizerState::kWaitingForMap) {
+      ++ls.scans_waiting_for_map;
+    } else if (step.state != LocalizerState::kTracking || step.declared) {
+      ls.cpu_s_localising += step.cpu_ms * 1e-3;
+      ++ls.scans_localising;
+    }
+    if (step.declared) {
+      ++ls.declarations;
+      if (!ls.first_pose) {
+        ls.first_pose = TimedPose{scan.stamp, step.pose};
+        ls.cpu_s_to_first_pose = ls.cpu_s_localising;
+        ls.scans_to_first_pose = ls.scans_localising;
+      }
+      spdlog::info(
+          "localised at ({:.2f}, {:.2f}, {:.1f} deg) after {} scans, {:.2f} s CPU "
+          "(evidence {:.2f}, agreement {:.2f})",
+          step.pose.x, step.pose.y, rad_to_deg(step.pose.theta), ls.scans_localising,
+          ls.cpu_s_localising, step.score, step.value.agreement());
+      ls.cpu_s_localising = 0.0;
+      ls.scans_localising = 0;
+    }
+    if (step.lost) {
+      ++ls.lost_events;
+      spdlog::warn("lost: the scans stopped matching the map; relocalising");
+    }
+    if (step.state == LocalizerState::kTracking) {
+      trajectory.push_back({scan.stamp, step.pose});
+      if (!step.declared) ls.tracking_cpu_ms.push_back(step.cpu_ms);
+    }
+    if (pose_writer) {
+      pose_writer->write(dds::pose_to_msg(robot_id, {scan.stamp, step.pose}, step.value.fitness,
+                                          status_of(step.state)));
+    }
+  };
+
   while (!g_stop.load()) {
-    follow->spin_once(std::chrono::milliseconds(50));
+    follow->spin_once(std::chrono::milliseconds(source ? 2 : 50));
     if (first_tile_s < 0 && follow->stats().tiles_applied > 0) first_tile_s = seconds_since_start();
     if (complete_s < 0 && follow->replica().complete()) {
       complete_s = seconds_since_start();
       spdlog::info("map complete: {} tiles after {:.2f} s", follow->replica().map().tile_count(),
                    complete_s);
-      if (exit_when_complete) break;
+      if (exit_when_complete && !source) break;
+    }
+    if (source && (!wait_complete || complete_s >= 0)) {
+      // One scan at a time, then DDS again: tiles keep arriving while the robot localises.
+      if (source->ready()) {
+        if (auto scan = source->next(g_stop)) {
+          process_scan(*scan);
+        } else if (source->ended()) {
+          scans_ended = true;
+          spdlog::info("scans ended after {} scans: state {}", ls.scans,
+                       to_string(localizer.state()));
+          break;
+        }
+      } else {
+        std::this_thread::sleep_for(std::chrono::milliseconds(1));
+      }
     }
     if (g_save.exchange(false)) save("SIGUSR1");
     if (Clock::now() - last_report > std::chrono::seconds(5)) {
@@ -146,6 +371,11 @@ int main(int argc, char** argv) {
           s.tiles_applied, s.tiles_stale, s.tiles_rejected, s.deltas_applied, s.deltas_needs_base,
           follow->replica().has_map() ? follow->replica().map().tile_count() : 0,
           follow->matched_leaders());
+      if (source) {
+        spdlog::info("robot '{}': {} at ({:.2f}, {:.2f}, {:.1f} deg), {} scans, {} hypotheses",
+                     robot_id, to_string(last_step.state), last_step.pose.x, last_step.pose.y,
+                     rad_to_deg(last_step.pose.theta), ls.scans, last_step.hypotheses);
+      }
     }
     if (timeout > 0 && seconds_since_start() > timeout) {
       timed_out = true;
@@ -153,7 +383,16 @@ int main(int argc, char** argv) {
       break;
     }
   }
-  const bool saved = save(g_stop.load() ? "signal" : timed_out ? "timeout" : "complete");
-  if (!saved && !save_dir.empty()) return 1;
+  if (topic != nullptr) {
+    const scans::TopicScanStats t = topic->stats();
+    spdlog::info("scan topic: {} received, {} malformed, {} missing (seq gaps)", t.received,
+                 t.malformed, t.seq_gaps);
+  }
+  if (pose_writer) pose_writer->wait_for_acknowledgments(std::chrono::milliseconds(500));
+  const bool saved = save(g_stop.load() ? "signal"
+                          : timed_out   ? "timeout"
+                          : scans_ended ? "scans ended"
+                                        : "complete");
+  if (!saved && (!save_dir.empty() || !trajectory_path.empty())) return 1;
   return timed_out ? 3 : 0;
 }

@@ -29,8 +29,7 @@ float prior(const SlamConfig& c, const Pose2& p, const std::vector<Pose2>& hypot
 }
 
 EsResult search(const SlamConfig& c, const EvolutionStrategy& es, Rng& rng, const GridMap& map,
-                const ScanPoints& points, const Pose2& centre,
-                const std::vector<Pose2>& hypotheses,
+                const ScanPoints& points, const Pose2& centre, const std::vector<Pose2>& hypotheses,
                 const std::vector<Pose2>& prior_hypotheses) {
   std::vector<Correction> extra;
   for (std::size_t h = 1; h < hypotheses.size(); ++h) {

@@ -30,7 +30,7 @@ struct KeyScan {
 
 struct LoopClosureConfig {
   bool enabled = true;
-  int every = 5;                   ///< attempt once per this many key scans
+  int every = 5;  ///< attempt once per this many key scans
   /// No attempt for this many key scans after an accepted closure: a robot going round a
   /// mapped place would otherwise close (and re-write the map) every few metres.
   int cooldown = 20;
@@ -59,8 +59,8 @@ struct LoopClosureConfig {
   /// this much: smaller moves (under half a 5 cm cell) barely change the map but make the
   /// leader republish tiles (fr079: 0.5 cm / 0.05 deg sent 22 MB of tile deltas after loop
   /// closures, 2 cm / 0.2 deg 15 MB at the same accuracy; docs/benchmarks.md).
-  double move_min_xy = 0.02;         ///< metres
-  double move_min_theta_deg = 0.2;   ///< degrees
+  double move_min_xy = 0.02;        ///< metres
+  double move_min_theta_deg = 0.2;  ///< degrees
   void validate() const;
 };
 

@@ -1,0 +1,380 @@
+#include "localise_bench.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "app/localise_params.hpp"
+#include "app/slam_params.hpp"
+#include "app/slam_run.hpp"
+#include "esfleet/core/fitness.hpp"
+#include "esfleet/core/map_io.hpp"
+#include "esfleet/core/relations.hpp"
+#include "esfleet/core/scan_points.hpp"
+#include "esfleet/core/slam.hpp"
+
+namespace esfleet::bench {
+
+void add_localise_bench_options(CLI::App& cmd, LocaliseBenchOptions& o) {
+  cmd.add_option("--log", o.log, "CARMEN log (the leader maps it, followers take scans from it)")
+      ->required();
+  cmd.add_option("--case", o.which,
+                 "a: map from the whole log, starts across it; b: map from the first half, "
+                 "starts in the second half where it was mapped; both")
+      ->check(CLI::IsMember({"a", "b", "both"}))
+      ->capture_default_str();
+  cmd.add_option("--starts", o.starts, "seeded starts per case")->capture_default_str();
+  cmd.add_option("--budget", o.budget, "scans a start may use before it counts as not localised")
+      ->capture_default_str();
+  cmd.add_option("--bench-seed", o.seed, "seed of the start sampling and the localisers")
+      ->capture_default_str();
+  cmd.add_option("--kidnaps", o.kidnaps, "kidnapped-robot trials (case a map)")
+      ->capture_default_str();
+  cmd.add_option("--threads", o.threads, "starts run in parallel (CPU time is per thread)")
+      ->capture_default_str();
+  cmd.add_option("--relations", o.relations,
+                 "relations file: tracking error of a follower run over the whole log");
+  cmd.add_option("--time-offset", o.time_offset, "relation stamp = trajectory stamp + this")
+      ->capture_default_str();
+  cmd.add_option("--output", o.output, "JSON file for the figures")->capture_default_str();
+  cmd.add_flag("--json", o.json, "last line of stdout is the JSON object");
+  app::add_slam_params(o.params, &o.config.slam, &o.reader);
+  app::add_localise_params(o.params, &o.config);
+  o.params.bind(cmd, "Parameters (leader SLAM and follower)");
+}
+
+namespace {
+
+/// A copy of `src` with the coarse levels the localiser needs (what a follower rebuilds).
+GridMap copy_map(const GridMap& src, int pyramid_levels) {
+  GridMapConfig c = src.config();
+  c.pyramid_levels = std::max(c.pyramid_levels, pyramid_levels);
+  GridMap out(c);
+  for (const TileKey k : src.tile_keys()) {
+    const Tile* t = src.find_tile(k);
+    out.set_tile(k, t->version, t->hit, t->err);
+  }
+  return out;
+}
+
+bool within(const Pose2& a, const Pose2& b, double xy, double theta_deg) {
+  return std::hypot(a.x - b.x, a.y - b.y) <= xy &&
+         std::abs(normalize_angle(a.theta - b.theta)) <= deg_to_rad(theta_deg);
+}
+
+constexpr double kTolXy = 0.3;
+constexpr double kTolThetaDeg = 5.0;
+
+struct StartResult {
+  std::size_t start = 0;
+  bool declared = false;
+  bool correct = false;
+  int scans = 0;
+  double cpu_s = 0.0;
+  double log_s = 0.0;
+  double error_xy = 0.0, error_theta_deg = 0.0;
+};
+
+StartResult run_start(const LocalizerConfig& config, const GridMap& map,
+                      const std::vector<LaserScan>& scans, const std::vector<TimedPose>& ref,
+                      std::size_t start, int budget) {
+  Localizer loc(config);
+  StartResult r;
+  r.start = start;
+  double cpu_ms = 0.0;
+  for (std::size_t j = start; j < scans.size() && r.scans < budget; ++j) {
+    const LocalizerStep step = loc.process(map, scans[j]);
+    cpu_ms += step.cpu_ms;
+    ++r.scans;
+    if (step.declared) {
+      r.declared = true;
+      r.correct = within(step.pose, ref[j].pose, kTolXy, kTolThetaDeg);
+      r.error_xy = std::hypot(step.pose.x - ref[j].pose.x, step.pose.y - ref[j].pose.y);
+      r.error_theta_deg =
+          rad_to_deg(std::abs(normalize_angle(step.pose.theta - ref[j].pose.theta)));
+      r.log_s = scans[j].stamp - scans[start].stamp;
+      break;
+    }
+  }
+  r.cpu_s = cpu_ms * 1e-3;
+  return r;
+}
+
+template <typename F>
+void parallel_for(int threads, std::size_t n, F&& f) {
+  std::atomic<std::size_t> next{0};
+  std::vector<std::thread> pool;
+  for (int t = 0; t < std::max(1, threads); ++t) {
+    pool.emplace_back([&] {
+      for (std::size_t i = next++; i < n; i = next++) f(i);
+    });
+  }
+  for (auto& th : pool) th.join();
+}
+
+nlohmann::json summarize_case(const std::vector<StartResult>& results, std::size_t skipped) {
+  std::vector<double> cpu, log_s, scans;
+  std::size_t ok = 0, wrong = 0;
+  nlohmann::json failures = nlohmann::json::array();
+  for (const StartResult& r : results) {
+    if (r.declared) {
+      cpu.push_back(r.cpu_s);
+      log_s.push_back(r.log_s);
+      scans.push_back(r.scans);
+      (r.correct ? ok : wrong)++;
+    }
+    if (!r.correct) {
+      failures.push_back({{"start_scan", r.start},
+                          {"declared", r.declared},
+                          {"error_m", r.error_xy},
+                          {"error_deg", r.error_theta_deg},
+                          {"scans", r.scans}});
+    }
+  }
+  const double n = static_cast<double>(std::max<std::size_t>(1, results.size()));
+  const app::Summary c = app::summarize(cpu), l = app::summarize(log_s), s = app::summarize(scans);
+  return {{"starts", results.size()},
+          {"skipped_unmapped_starts", skipped},
+          {"success_rate", static_cast<double>(ok) / n},
+          {"wrong_rate", static_cast<double>(wrong) / n},
+          {"undeclared_rate", static_cast<double>(results.size() - ok - wrong) / n},
+          {"median_s", c.median},
+          {"p95_s", c.p95},
+          {"max_s", c.max},
+          {"log_time_median_s", l.median},
+          {"log_time_p95_s", l.p95},
+          {"scans_median", s.median},
+          {"scans_p95", s.p95},
+          {"failures", failures}};
+}
+
+void print_case(const char* name, const nlohmann::json& j) {
+  std::printf(
+      "case %s: %d starts: success %.1f %%, wrong %.1f %%, undeclared %.1f %% | CPU to a pose: "
+      "median %.3f s, p95 %.3f s, max %.3f s | log time median %.1f s | scans median %.0f, p95 "
+      "%.0f\n",
+      name, j["starts"].get<int>(), 100.0 * j["success_rate"].get<double>(),
+      100.0 * j["wrong_rate"].get<double>(), 100.0 * j["undeclared_rate"].get<double>(),
+      j["median_s"].get<double>(), j["p95_s"].get<double>(), j["max_s"].get<double>(),
+      j["log_time_median_s"].get<double>(), j["scans_median"].get<double>(),
+      j["scans_p95"].get<double>());
+  std::fflush(stdout);
+}
+
+}  // namespace
+
+int run_localise_bench(LocaliseBenchOptions& o) {
+  std::vector<LaserScan> scans;
+  try {
+    o.params.apply();
+    o.config.validate();
+    scans = read_carmen_log(o.log, o.reader);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "esfleet-bench localise: %s\n", e.what());
+    return 2;
+  }
+  if (scans.size() < static_cast<std::size_t>(2 * o.budget + 10)) {
+    std::fprintf(stderr, "esfleet-bench localise: %s has %zu scans, too few for a budget of %d\n",
+                 o.log.c_str(), scans.size(), o.budget);
+    return 2;
+  }
+  // The leader: one SLAM run over the whole log; the map as it was at half time is kept.
+  std::fprintf(stderr, "%s: %zu scans; mapping (leader SLAM) ...\n", o.log.c_str(), scans.size());
+  const int levels = o.config.coarse_level;
+  Slam slam(o.config.slam);
+  const std::size_t half = scans.size() / 2;
+  std::optional<GridMap> half_map;
+  for (std::size_t i = 0; i < scans.size(); ++i) {
+    slam.process(scans[i]);
+    if (i + 1 == half) half_map.emplace(copy_map(slam.map(), levels));
+    if ((i + 1) % (scans.size() / 10) == 0) {
+      std::fprintf(stderr, "  %zu %%\n", 100 * (i + 1) / scans.size());
+    }
+  }
+  const GridMap full_map = copy_map(slam.map(), levels);
+  // Reference poses: the leader's final trajectory (read only by this benchmark).
+  const std::vector<TimedPose> ref = slam.trajectory();
+
+  nlohmann::json out;
+  out["log"] = o.log;
+  out["scans"] = scans.size();
+  out["budget_scans"] = o.budget;
+  out["tolerance"] = {{"xy_m", kTolXy}, {"theta_deg", kTolThetaDeg}};
+  out["search"] = o.config.global == GlobalSearch::kEs ? "es" : "grid";
+  std::vector<StartResult> pooled;
+  Rng pick(o.seed);
+  auto run_case = [&](const char* name, const GridMap& map, std::size_t lo) {
+    std::vector<std::size_t> starts;
+    std::size_t skipped = 0;
+    const std::size_t hi = scans.size() - static_cast<std::size_t>(o.budget);
+    while (starts.size() < static_cast<std::size_t>(o.starts)) {
+      const std::size_t s = lo + pick.below(static_cast<std::uint32_t>(hi - lo));
+      // Case b: only starts whose surroundings the half map covers (judged at the reference
+      // pose: at least half of the end points on known cells).
+      if (&map == &*half_map) {
+        const ScanPoints pts =
+            prepare_scan(scans[s], o.config.slam.min_range, o.config.slam.max_range);
+        const FitnessValue v = FitnessEvaluator(map, pts).evaluate(ref[s].pose);
+        if (v.n_points == 0 || 2 * v.n_known < v.n_points) {
+          ++skipped;
+          if (skipped > 100000) break;
+          continue;
+        }
+      }
+      starts.push_back(s);
+    }
+    std::vector<StartResult> results(starts.size());
+    std::atomic<int> done{0};
+    std::mutex print_mutex;
+    parallel_for(o.threads, starts.size(), [&](std::size_t i) {
+      LocalizerConfig c = o.config;
+      c.seed = o.seed * 1000003u + i;
+      results[i] = run_start(c, map, scans, ref, starts[i], o.budget);
+      const int d = ++done;
+      if (d % 10 == 0) {
+        std::lock_guard<std::mutex> lock(print_mutex);
+        std::fprintf(stderr, "  case %s: %d / %zu starts\n", name, d, starts.size());
+      }
+      if (results[i].declared && !results[i].correct) {
+        std::lock_guard<std::mutex> lock(print_mutex);
+        std::fprintf(stderr,
+                     "  case %s: WRONG pose from start scan %zu (seed %llu): %.2f m, %.1f deg\n",
+                     name, starts[i], static_cast<unsigned long long>(c.seed), results[i].error_xy,
+                     results[i].error_theta_deg);
+      }
+    });
+    nlohmann::json j = summarize_case(results, skipped);
+    print_case(name, j);
+    out[std::string("case_") + name] = j;
+    pooled.insert(pooled.end(), results.begin(), results.end());
+  };
+  if (o.which != "b") run_case("a", full_map, 0);
+  if (o.which != "a") run_case("b", *half_map, half);
+  const nlohmann::json all = summarize_case(pooled, 0);
+  for (const char* k : {"success_rate", "wrong_rate", "undeclared_rate", "median_s", "p95_s",
+                        "scans_median", "scans_p95"}) {
+    out[k] = all[k];
+  }
+
+  // Tracking: one follower over the whole log in the whole-log map.
+  {
+    Localizer loc(o.config);
+    std::vector<TimedPose> track;
+    std::size_t lost = 0;
+    std::vector<double> cpu;
+    for (const LaserScan& scan : scans) {
+      const LocalizerStep step = loc.process(full_map, scan);
+      if (step.lost) ++lost;
+      if (step.state == LocalizerState::kTracking) {
+        track.push_back({scan.stamp, step.pose});
+        cpu.push_back(step.cpu_ms);
+      }
+    }
+    const app::Summary c = app::summarize(cpu);
+    nlohmann::json t = {{"tracked_scans", track.size()},
+                        {"lost_events", lost},
+                        {"cpu_ms_median", c.median},
+                        {"cpu_ms_p95", c.p95}};
+    std::printf("tracking: %zu of %zu scans tracked, %zu lost events, %.2f ms CPU per scan median",
+                track.size(), scans.size(), lost, c.median);
+    if (!o.relations.empty()) {
+      try {
+        RelationsOptions ro;
+        ro.time_offset = o.time_offset;
+        const RelationsResult rr = evaluate_relations(track, read_relations(o.relations), ro);
+        t["relations_trans_mean_m"] = rr.trans_mean;
+        t["relations_rot_mean_deg"] = rr.rot_mean_deg;
+        t["relations_matched"] = rr.matched;
+        t["relations_outliers"] = rr.outliers;
+        std::printf(", relations error %.3f m, %.2f deg (%zu matched, %zu outliers)", rr.trans_mean,
+                    rr.rot_mean_deg, rr.matched, rr.outliers);
+      } catch (const std::exception& e) {
+        std::fprintf(stderr, "esfleet-bench localise: relations: %s\n", e.what());
+        return 1;
+      }
+    }
+    std::printf("\n");
+    out["tracking"] = t;
+  }
+
+  // Kidnap: localise and track from A, then the scans jump to B (at least 10 m away).
+  if (o.kidnaps > 0) {
+    std::vector<double> notice, relocalise;
+    int correct = 0, wrong = 0, missed = 0;
+    const std::size_t hi = scans.size() - static_cast<std::size_t>(o.budget);
+    for (int k = 0; k < o.kidnaps; ++k) {
+      LocalizerConfig c = o.config;
+      c.seed = o.seed * 7919u + static_cast<std::uint64_t>(k);
+      Localizer loc(c);
+      std::size_t a = pick.below(static_cast<std::uint32_t>(hi));
+      bool tracking = false;
+      int tracked = 0;
+      for (std::size_t j = a; j < scans.size() && tracked < 20; ++j) {
+        const LocalizerStep s = loc.process(full_map, scans[j]);
+        tracking = s.state == LocalizerState::kTracking;
+        if (tracking) ++tracked;
+        a = j;
+      }
+      if (!tracking) {
+        ++missed;
+        continue;
+      }
+      std::size_t b = 0;
+      for (int tries = 0; tries < 1000; ++tries) {
+        b = pick.below(static_cast<std::uint32_t>(hi));
+        if (std::hypot(ref[b].pose.x - ref[a].pose.x, ref[b].pose.y - ref[a].pose.y) > 10.0) break;
+      }
+      double cpu = 0.0;
+      int noticed = -1;
+      bool relocalised = false;
+      for (std::size_t j = b; j < scans.size() && j < b + 2 * static_cast<std::size_t>(o.budget);
+           ++j) {
+        // The kidnapped robot's clock goes on: shift B's stamps to follow A's.
+        LaserScan scan = scans[j];
+        scan.stamp = scans[a].stamp + (scans[j].stamp - scans[b].stamp) + 0.1;
+        scan.odometry.reset();
+        const LocalizerStep s = loc.process(full_map, scan);
+        cpu += s.cpu_ms;
+        if (s.lost && noticed < 0) noticed = static_cast<int>(j - b) + 1;
+        if (s.declared) {
+          relocalised = true;
+          if (within(s.pose, ref[j].pose, kTolXy, kTolThetaDeg)) {
+            ++correct;
+            relocalise.push_back(cpu * 1e-3);
+          } else {
+            ++wrong;
+          }
+          break;
+        }
+      }
+      if (noticed > 0) notice.push_back(noticed);
+      if (!relocalised) ++missed;
+    }
+    const app::Summary n = app::summarize(notice), r = app::summarize(relocalise);
+    out["kidnap"] = {{"trials", o.kidnaps},
+                     {"relocalised_correctly", correct},
+                     {"relocalised_wrong", wrong},
+                     {"not_relocalised", missed},
+                     {"scans_to_notice_median", n.median},
+                     {"cpu_s_to_relocalise_median", r.median},
+                     {"cpu_s_to_relocalise_p95", r.p95}};
+    std::printf(
+        "kidnap: %d trials: relocalised correctly %d, wrongly %d, not %d | noticed after %.0f "
+        "scans (median) | CPU to relocalise median %.3f s, p95 %.3f s\n",
+        o.kidnaps, correct, wrong, missed, n.median, r.median, r.p95);
+  }
+  try {
+    write_file_atomically(o.output, out.dump(2) + "\n");
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "esfleet-bench localise: %s\n", e.what());
+    return 1;
+  }
+  if (o.json) std::printf("%s\n", out.dump().c_str());
+  return 0;
+}
+
+}  // namespace esfleet::bench

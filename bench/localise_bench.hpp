@@ -1,0 +1,31 @@
+#pragma once
+#include <CLI/CLI.hpp>
+#include <string>
+
+#include "app/param_table.hpp"
+#include "esfleet/core/carmen_reader.hpp"
+#include "esfleet/core/localizer.hpp"
+
+namespace esfleet::bench {
+
+struct LocaliseBenchOptions {
+  std::string log;
+  std::string which = "both";  ///< a (map from the whole log), b (first half), both
+  int starts = 100;            ///< seeded starts per case
+  int budget = 100;            ///< scans a start may use before it counts as not localised
+  std::uint64_t seed = 1;
+  int kidnaps = 20;
+  int threads = 1;
+  std::string relations;  ///< ground-truth relations for the tracking error (evaluation only)
+  double time_offset = 0.0;
+  std::string output = "esfleet-bench-localise.json";
+  bool json = false;
+  LocalizerConfig config;
+  CarmenReaderOptions reader;
+  app::ParamTable params;
+};
+
+void add_localise_bench_options(CLI::App& cmd, LocaliseBenchOptions& o);
+int run_localise_bench(LocaliseBenchOptions& o);
+
+}  // namespace esfleet::bench

@@ -1,0 +1,189 @@
+#pragma once
+// The follower's self-localisation in a received map (ours, after the authors' multi-robot
+// work; ../docs/localisation.md has the measurements):
+//
+//  1. Global search (no prior knowledge): candidate poses over the known free space of the map
+//     and all headings. Default kGrid: every sample position (a grid over free cells) and
+//     heading is scored on a coarse pyramid level, the best distinct ones are refined with the
+//     (mu+1)-ES at full resolution. kEs (the paper's way): the ES itself, its initial
+//     population spread uniformly over free space and headings, restarted `es_restarts` times.
+//     With a hint, both search a box around it.
+//  2. Hypotheses: every candidate is tracked scan by scan with the same per-scan step as the
+//     leader (tracking.hpp). A pose is declared only when one hypothesis has matched the map
+//     well (agreement, known share) on `confirm_scans` consecutive scans, the robot has moved,
+//     and no distinct rival scores close to it (a corridor or a symmetric room).
+//  3. Tracking: the per-scan step on the declared hypothesis. When the match collapses for
+//     `lost_scans` scans the localiser reports lost and searches globally again (kidnap).
+//
+// The map may grow between scans (a follower keeps applying tiles); the localiser reads it
+// afresh on every scan. It never reads ground truth.
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "esfleet/core/es_search.hpp"
+#include "esfleet/core/geometry.hpp"
+#include "esfleet/core/grid_map.hpp"
+#include "esfleet/core/laser_scan.hpp"
+#include "esfleet/core/random.hpp"
+#include "esfleet/core/slam.hpp"
+#include "esfleet/core/tracking.hpp"
+
+namespace esfleet {
+
+enum class LocalizerState : std::uint8_t {
+  kWaitingForMap,  ///< no map tiles yet
+  kLocalising,     ///< searching, nothing declared yet
+  kTracking,       ///< pose declared and followed
+  kLost,           ///< was tracking, lost the match, searching again
+};
+const char* to_string(LocalizerState s);
+
+enum class GlobalSearch : std::uint8_t {
+  kGrid,  ///< coarse exhaustive scoring, then ES refinement of the best (ours, default)
+  kEs,    ///< the ES alone from a population spread over free space, with restarts (paper)
+};
+
+/// A pose guess: search within `radius` metres and `angle_deg` degrees of it.
+struct PoseHint {
+  Pose2 pose;
+  double radius = 1.0;
+  double angle_deg = 30.0;
+};
+
+struct LocalizerConfig {
+  /// Tracking parameters: the leader's SLAM configuration (ES, prediction, fitness); its map,
+  /// insertion and loop-closure settings are not used.
+  SlamConfig slam;
+  GlobalSearch global = GlobalSearch::kGrid;
+  std::optional<PoseHint> hint;
+  /// A hint that yields no declared pose within this many scans widens to the global search.
+  int hint_scans = 10;
+
+  // --- global search ---
+  int coarse_level = 3;          ///< pyramid level scored exhaustively (kGrid)
+  double step_xy = 0.0;          ///< sample grid, metres; 0 = 3/4 of a coarse cell (0.3 m)
+  double step_theta_deg = 0.0;   ///< heading step; 0 = one coarse cell at the median range
+  int coarse_points = 60;        ///< end points used for coarse scoring (evenly strided)
+  double free_max_value = 0.25;  ///< a sample cell is free when known and hit/(hit+err) <= this
+  int coarse_keep = 300;         ///< distinct coarse poses re-ranked on mid_level
+  int mid_level = 1;             ///< pyramid level of the re-ranking (evidence over a small window)
+  int candidates = 10;           ///< distinct candidates refined by the ES and followed
+  double distinct_xy = 1.0;      ///< candidates closer than this (and distinct_theta) are one
+  double distinct_theta_deg = 20.0;
+  int es_restarts = 20;      ///< kEs: independent ES runs per global search
+  int es_iterations = 3000;  ///< kEs: iterations per run (the population is the ES's mu)
+
+  // --- declaring a pose ---
+  int confirm_scans = 4;        ///< consecutive good scans of the leading hypothesis
+  double min_agreement = 0.65;  ///< good scan: FitnessValue::agreement at least this
+  double min_known = 0.5;       ///< ... and this share of end points on known cells
+  double min_travel = 0.3;      ///< metres moved (or min_turn turned) since the hypothesis began
+  double min_turn_deg = 30.0;
+  double max_ambiguity = 0.85;  ///< runner-up score / leader's score must stay below this
+  int max_hypotheses = 20;      ///< pool size
+  int research_every = 5;       ///< scans with no well-matching hypothesis between global searches
+  /// Before declaring, search globally on the current scan once more (always kGrid, never
+  /// limited by the hint); a distinct pose that explains it nearly as well (max_ambiguity)
+  /// joins the hypotheses and the declaration waits.
+  bool verify = true;
+  int hypothesis_iterations = 300;  ///< ES iterations per scan for each hypothesis (localising)
+  double prune_ratio = 0.7;  ///< hypotheses below this share of the best mean evidence drop out
+
+  // --- tracking ---
+  double lost_agreement = 0.6;  ///< a scan matching worse than this (or lost_known) is bad
+  double lost_known = 0.3;
+  int lost_scans = 5;  ///< consecutive bad scans to declare the robot lost
+
+  std::uint64_t seed = 1;
+  /// Throws std::invalid_argument naming the field.
+  void validate() const;
+};
+
+/// What happened to one scan.
+struct LocalizerStep {
+  LocalizerState state = LocalizerState::kWaitingForMap;
+  bool declared = false;  ///< the pose was declared at this scan (state became kTracking)
+  bool lost = false;      ///< tracking was lost at this scan
+  Pose2 pose;             ///< tracking: the pose; localising: the leading hypothesis (if any)
+  FitnessValue value;     ///< fitness terms at `pose`
+  float score = 0.0f;     ///< evidence() at `pose` (0..1)
+  std::size_t hypotheses = 0;
+  bool global_search = false;  ///< a global search ran for this scan
+  double cpu_ms = 0.0;         ///< thread CPU time spent on this scan
+};
+
+class Localizer {
+ public:
+  explicit Localizer(LocalizerConfig config);
+
+  /// Processes one scan against `map` (read only during the call).
+  LocalizerStep process(const GridMap& map, const LaserScan& scan);
+
+  LocalizerState state() const { return state_; }
+  const LocalizerConfig& config() const { return config_; }
+  /// Forget everything and search globally again (e.g. a new map epoch).
+  void reset();
+
+  /// The hypotheses followed while localising (for logs and diagnostics).
+  struct HypothesisView {
+    Pose2 pose;
+    float score = 0.0f;  ///< mean evidence() over the last confirm_scans scans
+    int good_streak = 0;
+    double travel = 0.0;
+    FitnessValue value;  ///< at the last scan
+  };
+  std::vector<HypothesisView> hypotheses() const;
+
+ private:
+  struct Hypothesis {
+    MotionState motion;
+    Pose2 origin;         ///< where it began (motion check)
+    double travel = 0.0;  ///< metres along its path
+    double turn = 0.0;    ///< radians turned in all
+    int good_streak = 0;
+    int scans = 0;
+    float score = 0.0f;  ///< mean evidence() over the last confirm_scans scans
+    std::vector<float> recent;
+    FitnessValue value;
+  };
+
+  std::vector<Pose2> global_candidates(const GridMap& map, const ScanPoints& points, bool use_hint,
+                                       GlobalSearch how);
+  std::vector<Pose2> grid_candidates(const GridMap& map, const ScanPoints& points,
+                                     const std::vector<Pose2>& samples, double step_xy,
+                                     double step_theta, double theta0, double theta_span);
+  std::vector<Pose2> es_candidates(const GridMap& map, const ScanPoints& points,
+                                   const std::vector<Pose2>& samples, double theta0,
+                                   double theta_span);
+  void add_hypotheses(const std::vector<Pose2>& poses, const GridMap& map, const ScanPoints& points,
+                      const LaserScan& scan);
+  void score_scan(Hypothesis& h, const FitnessValue& v, const Pose2& before, const Pose2& now);
+  bool good(const FitnessValue& v) const;
+  void localise(const GridMap& map, const ScanPoints& points, const LaserScan& scan,
+                LocalizerStep& step);
+  void track(const GridMap& map, const ScanPoints& points, const LaserScan& scan,
+             LocalizerStep& step);
+
+  LocalizerConfig config_;
+  EvolutionStrategy es_;
+  EvolutionStrategy hypothesis_es_;
+  Rng rng_;
+  LocalizerState state_ = LocalizerState::kWaitingForMap;
+  std::vector<Hypothesis> pool_;
+  int scans_since_search_ = 0;
+  int searching_scans_ = 0;  ///< scans since localising (re)started
+  Hypothesis tracked_;
+  int bad_streak_ = 0;
+};
+
+/// Fitness per end point: fitness / n_points, in [0, 1].
+float score_of(const FitnessValue& v);
+/// The localiser's evidence for a pose: the share of all end points that fall on cells with
+/// hit > 0 (agreement times known share), in [0, 1]. Unlike the fitness it counts end points
+/// in unknown or free space against the pose, which tells look-alike places apart.
+float evidence(const FitnessValue& v);
+
+}  // namespace esfleet

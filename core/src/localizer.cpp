@@ -1,0 +1,476 @@
+#include "esfleet/core/localizer.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <ctime>
+#include <stdexcept>
+
+#include "esfleet/core/scan_points.hpp"
+
+namespace esfleet {
+
+const char* to_string(LocalizerState s) {
+  switch (s) {
+    case LocalizerState::kWaitingForMap:
+      return "waiting_for_map";
+    case LocalizerState::kLocalising:
+      return "localising";
+    case LocalizerState::kTracking:
+      return "tracking";
+    case LocalizerState::kLost:
+      return "lost";
+  }
+  return "unknown";
+}
+
+void LocalizerConfig::validate() const {
+  slam.validate();
+  auto check = [](bool ok, const char* what) {
+    if (!ok) throw std::invalid_argument(what);
+  };
+  check(coarse_level >= 0 && coarse_level <= 6, "localise.coarse_level must be in [0, 6]");
+  check(step_xy >= 0.0 && std::isfinite(step_xy), "localise.step_xy must be >= 0 (0 = auto)");
+  check(step_theta_deg >= 0.0 && step_theta_deg <= 90.0,
+        "localise.step_theta must be in [0, 90] degrees (0 = auto)");
+  check(coarse_points >= 8, "localise.coarse_points must be >= 8");
+  check(free_max_value >= 0.0 && free_max_value < 1.0, "localise.free_max must be in [0, 1)");
+  check(candidates >= 1, "localise.candidates must be >= 1");
+  check(coarse_keep >= candidates, "localise.coarse_keep must be >= localise.candidates");
+  check(mid_level >= 0 && mid_level <= coarse_level,
+        "localise.mid_level must be in [0, localise.coarse_level]");
+  check(distinct_xy > 0.0 && distinct_theta_deg > 0.0,
+        "localise.distinct_xy and distinct_theta must be > 0");
+  check(es_restarts >= 1 && es_iterations >= 1,
+        "localise.es_restarts and es_iterations must be >= 1");
+  check(confirm_scans >= 1, "localise.confirm_scans must be >= 1");
+  check(min_agreement >= 0.0 && min_agreement <= 1.0, "localise.min_agreement must be in [0, 1]");
+  check(min_known >= 0.0 && min_known <= 1.0, "localise.min_known must be in [0, 1]");
+  check(min_travel >= 0.0 && min_turn_deg >= 0.0, "localise.min_travel and min_turn must be >= 0");
+  check(max_ambiguity > 0.0 && max_ambiguity <= 1.0, "localise.max_ambiguity must be in (0, 1]");
+  check(max_hypotheses >= 1, "localise.max_hypotheses must be >= 1");
+  check(research_every >= 1, "localise.research_every must be >= 1");
+  check(hypothesis_iterations >= 0, "localise.hypothesis_iterations must be >= 0");
+  check(prune_ratio >= 0.0 && prune_ratio < 1.0, "localise.prune_ratio must be in [0, 1)");
+  check(lost_scans >= 1, "localise.lost_scans must be >= 1");
+  check(hint_scans >= 1, "localise.hint_scans must be >= 1");
+  if (hint) {
+    check(hint->radius >= 0.0 && std::isfinite(hint->radius), "hint radius must be >= 0");
+    check(hint->angle_deg >= 0.0 && hint->angle_deg <= 180.0,
+          "hint angle must be in [0, 180] degrees");
+  }
+}
+
+float score_of(const FitnessValue& v) {
+  return v.n_points > 0 ? v.fitness / static_cast<float>(v.n_points) : 0.0f;
+}
+
+float evidence(const FitnessValue& v) {
+  return v.n_points > 0 ? static_cast<float>(v.n_hit) / static_cast<float>(v.n_points) : 0.0f;
+}
+
+namespace {
+
+double thread_cpu_ms() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) * 1e3 + static_cast<double>(ts.tv_nsec) * 1e-6;
+}
+
+double known_share(const FitnessValue& v) {
+  return v.n_points > 0 ? static_cast<double>(v.n_known) / static_cast<double>(v.n_points) : 0.0;
+}
+
+bool same_place(const Pose2& a, const Pose2& b, double xy, double theta) {
+  return std::hypot(a.x - b.x, a.y - b.y) < xy &&
+         std::abs(normalize_angle(a.theta - b.theta)) < theta;
+}
+
+/// Median range of the valid beams (for the heading step).
+double median_range(const ScanPoints& points) {
+  if (points.range.empty()) return 5.0;
+  std::vector<float> r = points.range;
+  std::nth_element(r.begin(), r.begin() + static_cast<std::ptrdiff_t>(r.size() / 2), r.end());
+  return std::max(0.5, static_cast<double>(r[r.size() / 2]));
+}
+
+}  // namespace
+
+Localizer::Localizer(LocalizerConfig config)
+    : config_(std::move(config)),
+      es_(config_.slam.es),
+      hypothesis_es_([this] {
+        EsConfig c = config_.slam.es;
+        c.iterations = config_.hypothesis_iterations;
+        return c;
+      }()),
+      rng_(config_.seed) {
+  config_.validate();
+}
+
+void Localizer::reset() {
+  state_ = LocalizerState::kWaitingForMap;
+  pool_.clear();
+  scans_since_search_ = 0;
+  searching_scans_ = 0;
+  bad_streak_ = 0;
+}
+
+std::vector<Localizer::HypothesisView> Localizer::hypotheses() const {
+  std::vector<HypothesisView> out;
+  for (const Hypothesis& h : pool_) {
+    out.push_back({h.motion.last.pose, h.score, h.good_streak, h.travel, h.value});
+  }
+  return out;
+}
+
+bool Localizer::good(const FitnessValue& v) const {
+  return v.agreement() >= config_.min_agreement && known_share(v) >= config_.min_known;
+}
+
+std::vector<Pose2> Localizer::global_candidates(const GridMap& map, const ScanPoints& points,
+                                                bool use_hint, GlobalSearch how) {
+  const int level = std::min(config_.coarse_level, map.pyramid_levels());
+  const double coarse_cell = map.cell_size() * static_cast<double>(1 << level);
+  const double step_xy = config_.step_xy > 0.0 ? config_.step_xy : 0.75 * coarse_cell;
+  double step_theta = config_.step_theta_deg > 0.0 ? deg_to_rad(config_.step_theta_deg)
+                                                   : std::atan2(coarse_cell, median_range(points));
+  step_theta = std::clamp(step_theta, deg_to_rad(0.5), deg_to_rad(10.0));
+  const PoseHint* hint = use_hint && config_.hint ? &*config_.hint : nullptr;
+
+  // Sample positions: cell centres on a step_xy grid over known free cells.
+  const int stride = std::max(1, static_cast<int>(std::lround(step_xy / map.cell_size())));
+  const int edge = map.tile_edge();
+  const double cell = map.cell_size();
+  std::vector<Pose2> samples;
+  for (const TileKey k : map.tile_keys()) {
+    const Tile* t = map.find_tile(k);
+    for (int ly = stride / 2; ly < edge; ly += stride) {
+      for (int lx = stride / 2; lx < edge; lx += stride) {
+        const auto i = static_cast<std::size_t>(ly * edge + lx);
+        const std::uint64_t h = t->hit[i], e = t->err[i];
+        if (h + e == 0) continue;
+        if (static_cast<double>(h) > config_.free_max_value * static_cast<double>(h + e)) continue;
+        const double x = (static_cast<double>(k.tx) * edge + lx + 0.5) * cell;
+        const double y = (static_cast<double>(k.ty) * edge + ly + 0.5) * cell;
+        if (hint && std::hypot(x - hint->pose.x, y - hint->pose.y) > hint->radius + step_xy) {
+          continue;
+        }
+        samples.push_back({x, y, 0.0});
+      }
+    }
+  }
+  if (samples.empty()) return {};
+  double theta0 = -M_PI, span = 2.0 * M_PI;
+  if (hint) {
+    theta0 = hint->pose.theta - deg_to_rad(hint->angle_deg);
+    span = 2.0 * deg_to_rad(hint->angle_deg);
+  }
+  if (how == GlobalSearch::kEs) {
+    return es_candidates(map, points, samples, theta0, span);
+  }
+  return grid_candidates(map, points, samples, step_xy, step_theta, theta0, span);
+}
+
+std::vector<Pose2> Localizer::grid_candidates(const GridMap& map, const ScanPoints& points,
+                                              const std::vector<Pose2>& samples, double step_xy,
+                                              double step_theta, double theta0, double span) {
+  FitnessOptions coarse_options = slam_fitness_options(config_.slam, false);
+  coarse_options.level = std::min(config_.coarse_level, map.pyramid_levels());
+  coarse_options.stride =
+      std::max(1, static_cast<int>(points.size()) / std::max(1, config_.coarse_points));
+  const FitnessEvaluator coarse(map, points, coarse_options);
+  const int headings = std::max(1, static_cast<int>(std::ceil(span / step_theta - 1e-9)) +
+                                       (span < 2.0 * M_PI - 1e-9 ? 1 : 0));
+  // Best heading per sample position.
+  struct Scored {
+    float score;
+    Pose2 pose;
+  };
+  std::vector<Scored> best(samples.size(), Scored{-1.0f, {}});
+  for (int h = 0; h < headings; ++h) {
+    const double th = normalize_angle(theta0 + h * step_theta);
+    for (std::size_t s = 0; s < samples.size(); ++s) {
+      const Pose2 p{samples[s].x, samples[s].y, th};
+      const float f = coarse.fitness(p);
+      if (f > best[s].score) best[s] = {f, p};
+    }
+  }
+  std::sort(best.begin(), best.end(),
+            [](const Scored& a, const Scored& b) { return a.score > b.score; });
+  // The coarse level is blurred (max over 2^L cells): keep many distinct coarse poses, then
+  // rank them by their evidence at a finer level over a small window around each.
+  std::vector<Scored> coarse_kept;
+  const double dth = deg_to_rad(config_.distinct_theta_deg);
+  for (const Scored& c : best) {
+    if (!(c.score > 0.0f)) break;
+    const bool near = std::any_of(coarse_kept.begin(), coarse_kept.end(), [&](const Scored& k) {
+      return same_place(k.pose, c.pose, step_xy * 2.0, dth);
+    });
+    if (near) continue;
+    coarse_kept.push_back(c);
+    if (static_cast<int>(coarse_kept.size()) >= config_.coarse_keep) break;
+  }
+  FitnessOptions mid_options = slam_fitness_options(config_.slam, false);
+  mid_options.level = std::min(config_.mid_level, map.pyramid_levels());
+  const FitnessEvaluator mid(map, points, mid_options);
+  const double mid_cell = map.cell_size() * static_cast<double>(1 << mid_options.level);
+  const int nxy = std::max(1, static_cast<int>(std::lround(step_xy / mid_cell)));
+  std::vector<Scored> ranked;
+  for (const Scored& c : coarse_kept) {
+    Scored b{-1.0f, c.pose};
+    for (int it = -1; it <= 1; ++it) {
+      for (int iy = -nxy; iy <= nxy; ++iy) {
+        for (int ix = -nxy; ix <= nxy; ++ix) {
+          const Pose2 p{c.pose.x + ix * mid_cell, c.pose.y + iy * mid_cell,
+                        normalize_angle(c.pose.theta + it * step_theta / 2.0)};
+          const float e = evidence(mid.evaluate(p));
+          if (e > b.score) b = {e, p};
+        }
+      }
+    }
+    ranked.push_back(b);
+  }
+  std::sort(ranked.begin(), ranked.end(),
+            [](const Scored& a, const Scored& b) { return a.score > b.score; });
+  std::vector<Pose2> kept;
+  for (const Scored& c : ranked) {
+    const bool near = std::any_of(kept.begin(), kept.end(), [&](const Pose2& k) {
+      return same_place(k, c.pose, config_.distinct_xy, dth);
+    });
+    if (near) continue;
+    kept.push_back(c.pose);
+    if (static_cast<int>(kept.size()) >= config_.candidates) break;
+  }
+  // The ES refines each kept candidate at full resolution.
+  const FitnessEvaluator fine(
+      map, points,
+      slam_fitness_options(config_.slam, config_.slam.interpolation != Interpolation::kNone));
+  std::vector<Pose2> out;
+  for (const Pose2& c : kept) {
+    const auto initial =
+        make_initial_population(config_.slam.es.mu, mid_cell, step_theta / 4.0, rng_);
+    const EsResult r = es_.search(fine, c, initial, rng_);
+    out.push_back(refine_pose(fine, r.pose, 0.02, deg_to_rad(0.5), 0.001).pose);
+  }
+  return out;
+}
+
+std::vector<Pose2> Localizer::es_candidates(const GridMap& map, const ScanPoints& points,
+                                            const std::vector<Pose2>& samples, double theta0,
+                                            double span) {
+  // The paper's way: the initial population spread over free space and headings; the ES
+  // climbs from there. Corrections are absolute poses (centre at the origin).
+  const FitnessEvaluator eval(map, points, slam_fitness_options(config_.slam, false));
+  struct Run {
+    float fitness;
+    Pose2 pose;
+  };
+  std::vector<Run> runs;
+  const auto n = static_cast<std::uint32_t>(samples.size());
+  const double cell = map.cell_size();
+  for (int r = 0; r < config_.es_restarts; ++r) {
+    std::vector<Correction> initial(static_cast<std::size_t>(config_.slam.es.mu));
+    for (Correction& g : initial) {
+      const Pose2& s = samples[rng_.below(n)];
+      g.dx = s.x + (rng_.uniform() - 0.5) * cell;
+      g.dy = s.y + (rng_.uniform() - 0.5) * cell;
+      g.dtheta = theta0 + rng_.uniform() * span;
+    }
+    const EsResult res = es_.search(eval, Pose2{}, initial, rng_, config_.es_iterations);
+    runs.push_back({res.value.fitness, res.pose});
+  }
+  std::sort(runs.begin(), runs.end(),
+            [](const Run& a, const Run& b) { return a.fitness > b.fitness; });
+  std::vector<Pose2> out;
+  const double dth = deg_to_rad(config_.distinct_theta_deg);
+  for (const Run& run : runs) {
+    const bool near = std::any_of(out.begin(), out.end(), [&](const Pose2& k) {
+      return same_place(k, run.pose, config_.distinct_xy, dth);
+    });
+    if (!near) out.push_back(run.pose);
+    if (static_cast<int>(out.size()) >= config_.candidates) break;
+  }
+  return out;
+}
+
+void Localizer::score_scan(Hypothesis& h, const FitnessValue& v, const Pose2& before,
+                           const Pose2& now) {
+  h.value = v;
+  ++h.scans;
+  h.travel += std::hypot(now.x - before.x, now.y - before.y);
+  h.turn += std::abs(normalize_angle(now.theta - before.theta));
+  h.good_streak = good(v) ? h.good_streak + 1 : 0;
+  h.recent.push_back(evidence(v));
+  const auto window = static_cast<std::size_t>(config_.confirm_scans);
+  if (h.recent.size() > window) h.recent.erase(h.recent.begin());
+  float sum = 0.0f;
+  for (const float s : h.recent) sum += s;
+  h.score = sum / static_cast<float>(h.recent.size());
+}
+
+void Localizer::add_hypotheses(const std::vector<Pose2>& poses, const GridMap& map,
+                               const ScanPoints& points, const LaserScan& scan) {
+  const FitnessEvaluator eval(
+      map, points,
+      slam_fitness_options(config_.slam, config_.slam.interpolation != Interpolation::kNone));
+  for (const Pose2& p : poses) {
+    const bool known = std::any_of(pool_.begin(), pool_.end(), [&](const Hypothesis& h) {
+      return same_place(h.motion.last.pose, p, 0.3, deg_to_rad(10.0));
+    });
+    if (known) continue;
+    Hypothesis h;
+    h.motion.last = {scan.stamp, p};
+    h.motion.odometry = scan.odometry;
+    h.origin = p;
+    score_scan(h, eval.evaluate(p), p, p);
+    pool_.push_back(std::move(h));
+  }
+}
+
+void Localizer::localise(const GridMap& map, const ScanPoints& points, const LaserScan& scan,
+                         LocalizerStep& step) {
+  ++searching_scans_;
+  // Follow every hypothesis with the per-scan tracking step.
+  for (Hypothesis& h : pool_) {
+    const TrackResult t =
+        track_scan(config_.slam, hypothesis_es_, rng_, map, points, scan, h.motion);
+    const Pose2 before = h.motion.last.pose;
+    h.motion.previous = h.motion.last;
+    h.motion.last = {scan.stamp, t.result.pose};
+    if (scan.odometry) h.motion.odometry = scan.odometry;
+    score_scan(h, t.result.value, before, t.result.pose);
+  }
+  // Merge hypotheses that converged onto one pose; drop the clearly worse.
+  std::stable_sort(pool_.begin(), pool_.end(),
+                   [](const Hypothesis& a, const Hypothesis& b) { return a.score > b.score; });
+  std::vector<Hypothesis> kept;
+  for (Hypothesis& h : pool_) {
+    const bool dup = std::any_of(kept.begin(), kept.end(), [&](const Hypothesis& k) {
+      return same_place(k.motion.last.pose, h.motion.last.pose, 0.3, deg_to_rad(10.0));
+    });
+    if (dup) continue;
+    if (!kept.empty() && h.scans >= 2 &&
+        h.score < static_cast<float>(config_.prune_ratio) * kept.front().score) {
+      continue;
+    }
+    kept.push_back(std::move(h));
+    if (static_cast<int>(kept.size()) >= config_.max_hypotheses) break;
+  }
+  pool_ = std::move(kept);
+
+  // Search (again) when there is nothing to follow or nothing has been declared for a while.
+  const bool use_hint = config_.hint && searching_scans_ <= config_.hint_scans;
+  const bool any_good = std::any_of(pool_.begin(), pool_.end(),
+                                    [](const Hypothesis& h) { return h.good_streak > 0; });
+  if (pool_.empty() || (!any_good && scans_since_search_ >= config_.research_every)) {
+    add_hypotheses(global_candidates(map, points, use_hint, config_.global), map, points, scan);
+    scans_since_search_ = 0;
+    step.global_search = true;
+  } else {
+    ++scans_since_search_;
+  }
+  step.hypotheses = pool_.size();
+  if (pool_.empty()) return;
+  std::size_t lead = 0;
+  for (std::size_t i = 1; i < pool_.size(); ++i) {
+    if (pool_[i].score > pool_[lead].score) lead = i;
+  }
+  float rival = 0.0f;
+  for (std::size_t i = 0; i < pool_.size(); ++i) {
+    if (i != lead) rival = std::max(rival, pool_[i].score);
+  }
+  const Hypothesis& h = pool_[lead];
+  step.pose = h.motion.last.pose;
+  step.value = h.value;
+  step.score = h.score;
+  const bool moved = h.travel >= config_.min_travel || h.turn >= deg_to_rad(config_.min_turn_deg);
+  const bool clear = h.score > 0.0f && rival <= static_cast<float>(config_.max_ambiguity) * h.score;
+  if (h.good_streak >= config_.confirm_scans && moved && clear && config_.verify &&
+      !step.global_search) {
+    // Last check before declaring: a fresh global search on this scan must not find a
+    // distinct pose that explains it nearly as well (a place the candidates or a wrong hint
+    // missed). Always the global grid search, whatever the hint or the search mode: it is
+    // the safety net against a wrong confident pose.
+    const Pose2 lead_pose = h.motion.last.pose;
+    const float lead_now = evidence(h.value);
+    const std::vector<Pose2> fresh =
+        global_candidates(map, points, /*use_hint=*/false, GlobalSearch::kGrid);
+    step.global_search = true;
+    scans_since_search_ = 0;
+    const FitnessEvaluator eval(
+        map, points,
+        slam_fitness_options(config_.slam, config_.slam.interpolation != Interpolation::kNone));
+    std::vector<Pose2> rivals;
+    const double dth = deg_to_rad(config_.distinct_theta_deg);
+    for (const Pose2& p : fresh) {
+      if (same_place(p, lead_pose, config_.distinct_xy, dth)) continue;
+      if (evidence(eval.evaluate(p)) >= static_cast<float>(config_.max_ambiguity) * lead_now) {
+        rivals.push_back(p);
+      }
+    }
+    if (!rivals.empty()) {
+      add_hypotheses(rivals, map, points, scan);
+      step.hypotheses = pool_.size();
+      return;
+    }
+  }
+  if (pool_.empty()) return;
+  lead = 0;
+  for (std::size_t i = 1; i < pool_.size(); ++i) {
+    if (pool_[i].score > pool_[lead].score) lead = i;
+  }
+  const Hypothesis& hd = pool_[lead];
+  if (hd.good_streak >= config_.confirm_scans && moved && clear) {
+    tracked_ = hd;
+    pool_.clear();
+    bad_streak_ = 0;
+    state_ = LocalizerState::kTracking;
+    step.declared = true;
+  }
+}
+
+void Localizer::track(const GridMap& map, const ScanPoints& points, const LaserScan& scan,
+                      LocalizerStep& step) {
+  const TrackResult t = track_scan(config_.slam, es_, rng_, map, points, scan, tracked_.motion);
+  tracked_.motion.previous = tracked_.motion.last;
+  tracked_.motion.last = {scan.stamp, t.result.pose};
+  if (scan.odometry) tracked_.motion.odometry = scan.odometry;
+  tracked_.value = t.result.value;
+  step.pose = t.result.pose;
+  step.value = t.result.value;
+  step.score = evidence(t.result.value);
+  const bool bad = t.result.value.agreement() < config_.lost_agreement ||
+                   known_share(t.result.value) < config_.lost_known;
+  bad_streak_ = bad ? bad_streak_ + 1 : 0;
+  if (bad_streak_ >= config_.lost_scans) {
+    state_ = LocalizerState::kLost;
+    step.lost = true;
+    pool_.clear();
+    scans_since_search_ = 0;
+    searching_scans_ = config_.hint_scans;  // a hint no longer applies: search globally
+  }
+}
+
+LocalizerStep Localizer::process(const GridMap& map, const LaserScan& scan) {
+  const double t0 = thread_cpu_ms();
+  LocalizerStep step;
+  if (map.tile_count() == 0) {
+    state_ = LocalizerState::kWaitingForMap;
+  } else {
+    if (state_ == LocalizerState::kWaitingForMap) state_ = LocalizerState::kLocalising;
+    const ScanPoints points = prepare_scan(scan, config_.slam.min_range, config_.slam.max_range);
+    if (points.size() == 0) {
+      // Nothing to match: keep the state, report the last pose.
+      step.pose = state_ == LocalizerState::kTracking ? tracked_.motion.last.pose : Pose2{};
+    } else if (state_ == LocalizerState::kTracking) {
+      track(map, points, scan, step);
+    } else {
+      localise(map, points, scan, step);
+    }
+  }
+  step.state = state_;
+  step.cpu_ms = thread_cpu_ms() - t0;
+  return step;
+}
+
+}  // namespace esfleet

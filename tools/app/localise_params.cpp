@@ -1,0 +1,91 @@
+#include "app/localise_params.hpp"
+
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+#include <vector>
+
+namespace esfleet::app {
+
+void add_localise_params(ParamTable& t, LocalizerConfig* c) {
+  t.add_choice(
+      "localise_search", {"grid", "es"},
+      [c](const std::string& v) {
+        c->global = v == "es" ? GlobalSearch::kEs : GlobalSearch::kGrid;
+      },
+      [c] { return std::string(c->global == GlobalSearch::kEs ? "es" : "grid"); },
+      "global search: grid = coarse exhaustive scoring then ES refinement (ours); es = the ES "
+      "alone from a population spread over free space, with restarts (the paper's way)");
+  t.add_int("localise_coarse_level", &c->coarse_level,
+            "map pyramid level scored exhaustively by the grid search (3 = 0.4 m cells)");
+  t.add_double("localise_step_xy", &c->step_xy,
+               "grid search position step, metres (0 = 3/4 of a coarse cell)");
+  t.add_double("localise_step_theta", &c->step_theta_deg,
+               "grid search heading step, degrees (0 = a coarse cell at the median range)");
+  t.add_int("localise_coarse_points", &c->coarse_points, "end points used for coarse scoring");
+  t.add_double("localise_free_max", &c->free_max_value,
+               "a cell is free space (a start candidate) when hit/(hit+err) is at most this");
+  t.add_int("localise_candidates", &c->candidates, "distinct candidates kept per global search");
+  t.add_int("localise_es_restarts", &c->es_restarts, "es search: ES runs per global search");
+  t.add_int("localise_es_iterations", &c->es_iterations, "es search: iterations per ES run");
+  t.add_int("localise_confirm_scans", &c->confirm_scans,
+            "consecutive well-matching scans before a pose is declared");
+  t.add_double("localise_min_agreement", &c->min_agreement,
+               "a well-matching scan puts at least this share of its known end points on "
+               "occupied cells");
+  t.add_double("localise_min_known", &c->min_known,
+               "... and at least this share of all end points on known cells");
+  t.add_double("localise_min_travel", &c->min_travel,
+               "a pose is declared only after moving this far, metres (or turning min_turn)");
+  t.add_double("localise_min_turn", &c->min_turn_deg, "... or turning this much, degrees");
+  t.add_double("localise_max_ambiguity", &c->max_ambiguity,
+               "a pose is declared only if the best rival scores below this share of it");
+  t.add_int("localise_max_hypotheses", &c->max_hypotheses, "hypotheses followed at once");
+  t.add_int("localise_research_every", &c->research_every,
+            "scans without a declaration between global searches");
+  t.add_switch("localise_verify", &c->verify,
+               "search globally once more before declaring a pose; a rival explaining the scan "
+               "nearly as well delays the declaration");
+  t.add_int("localise_hypothesis_iterations", &c->hypothesis_iterations,
+            "ES iterations per scan for each hypothesis while localising");
+  t.add_double("localise_prune_ratio", &c->prune_ratio,
+               "hypotheses whose mean evidence falls below this share of the best drop out");
+  t.add_int("localise_hint_scans", &c->hint_scans,
+            "a hint that yields no pose within this many scans widens to the global search");
+  t.add_double("lost_agreement", &c->lost_agreement,
+               "tracking: a scan whose agreement is below this is bad");
+  t.add_double("lost_known", &c->lost_known,
+               "tracking: ... or whose share of end points on known cells is below this");
+  t.add_int("lost_scans", &c->lost_scans, "consecutive bad scans that mean lost (relocalise)");
+}
+
+PoseHint parse_hint(const std::string& text) {
+  std::vector<double> v;
+  std::stringstream ss(text);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    try {
+      std::size_t used = 0;
+      const double d = std::stod(item, &used);
+      if (used != item.size() || !std::isfinite(d)) throw std::invalid_argument(item);
+      v.push_back(d);
+    } catch (const std::exception&) {
+      throw std::invalid_argument("hint '" + text + "': '" + item + "' is not a number");
+    }
+  }
+  if (v.size() < 3 || v.size() > 5) {
+    throw std::invalid_argument("hint '" + text +
+                                "': expected x,y,theta_deg[,radius_m[,angle_deg]]");
+  }
+  PoseHint h;
+  h.pose = {v[0], v[1], normalize_angle(deg_to_rad(v[2]))};
+  if (v.size() > 3) h.radius = v[3];
+  if (v.size() > 4) h.angle_deg = v[4];
+  if (h.radius < 0.0) throw std::invalid_argument("hint '" + text + "': radius must be >= 0");
+  if (h.angle_deg < 0.0 || h.angle_deg > 180.0) {
+    throw std::invalid_argument("hint '" + text + "': angle must be in [0, 180] degrees");
+  }
+  return h;
+}
+
+}  // namespace esfleet::app
