@@ -58,6 +58,7 @@ struct ReplayOptions {
   int domain = 0;              ///< DDS domain id
   std::string profile;         ///< Fast DDS XML profile; empty = Fast DDS defaults
   std::size_t max_scans = 0;   ///< publish only the first N scans; 0 = all
+  std::size_t first_scan = 0;  ///< skip the scans before this one
   int wait_subscribers = 1;    ///< before the first scan, wait for this many scan readers
   double wait_timeout = 30.0;  ///< ... at most this many seconds (then start anyway)
   bool odometry = true;        ///< send the log's odometry with each scan
@@ -130,6 +131,9 @@ int main(int argc, char** argv) {
   cli.add_option("--domain", o.domain, "DDS domain id (0-232)")->capture_default_str();
   cli.add_option("--profile", o.profile,
                  "Fast DDS XML profile (deploy/fastdds/*.xml); default: Fast DDS defaults");
+  cli.add_option("--first-scan", o.first_scan,
+                 "start at this scan of the log (counted from 0, before --max-scans applies)")
+      ->capture_default_str();
   cli.add_option("--max-scans", o.max_scans, "publish only the first N scans (0 = all)")
       ->capture_default_str();
   cli.add_option("--wait-subscribers", o.wait_subscribers,
@@ -161,6 +165,12 @@ int main(int argc, char** argv) {
   std::vector<LaserScan> scans;
   try {
     scans = read_log(o.log, o.max_scans);
+    if (o.first_scan >= scans.size()) {
+      throw std::invalid_argument("--first-scan " + std::to_string(o.first_scan) + ": " + o.log +
+                                  " has only " + std::to_string(scans.size()) + " scans" +
+                                  (o.max_scans > 0 ? " (with --max-scans)" : ""));
+    }
+    scans.erase(scans.begin(), scans.begin() + static_cast<std::ptrdiff_t>(o.first_scan));
   } catch (const std::exception& e) {
     spdlog::error("{}", e.what());
     return kExitError;

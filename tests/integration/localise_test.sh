@@ -7,7 +7,8 @@
 #      and ends with the leader's map;
 #   B  a wrong hint (8 m off) that never widens to the global search: must not declare a
 #      wrong pose;
-#   C  no hint, started before the leader: localises while the map is still growing.
+#   C  no hint, its scans from esfleet-replay over the scan topic, started with the leader:
+#      localises while the map is still growing.
 #
 # usage: localise_test.sh BIN_DIR LOG PROFILE DOMAIN [MAX_SCANS] [FIRST_SCAN]
 set -euo pipefail
@@ -30,10 +31,13 @@ fail() {
 common=(--domain "$domain" --profile "$profile")
 scans=(--log "$log" --odometry on --max-scans "$max_scans")
 
-"$bin/esfleet-follower" "${common[@]}" "${scans[@]}" --first-scan "$first" --rate 4 \
+"$bin/esfleet-follower" "${common[@]}" --scan-topic c --idle-exit 3 --odometry on \
   --robot-id c --seed 3 --save-map "$work/c" --timeout 150 >"$work/c.log" 2>&1 &
 pid_c=$!
 pids+=("$pid_c")
+"$bin/esfleet-replay" "${common[@]}" --log "$log" --robot-id c --first-scan "$first" \
+  --max-scans "$max_scans" --rate 4 >"$work/replay.log" 2>&1 &
+pids+=($!)
 
 "$bin/esfleet-leader" "${scans[@]}" --seed 7 "${common[@]}" --out "$work/leader" --linger 150 \
   >"$work/leader.log" 2>&1 &
