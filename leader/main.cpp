@@ -41,8 +41,8 @@ struct OnlineOptions {
   double publish_period = 1.0;  ///< seconds of scan time between publishes
   double linger = -1.0;         ///< seconds to keep serving after the input; < 0 = until stopped
   std::string encoding = "med";
-  std::uint64_t full_every = 30;  ///< whole tile every this many publishes (deltas in between)
-  double full_period = 30.0;      ///< and at least every this many seconds of scan time
+  std::uint64_t full_every = 60;  ///< whole tile every this many publishes (deltas in between)
+  double full_period = 60.0;      ///< and at least every this many seconds of scan time
 };
 
 /// Progress line every this many scans when the total is not known (--scan-topic).

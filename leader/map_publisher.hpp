@@ -41,9 +41,9 @@ struct PublishStats {
 struct DeltaPolicy {
   /// One whole tile every this many publishes of a tile (full_every - 1 deltas in between);
   /// 1 = always whole (no deltas).
-  std::uint64_t full_every = 30;
+  std::uint64_t full_every = 60;
   /// Whole tile when the whole copy is this many seconds of scan time old.
-  double full_period = 30.0;
+  double full_period = 60.0;
 };
 
 class MapPublisher {

@@ -134,7 +134,7 @@ std::vector<Pose2> Localizer::global_candidates(const GridMap& map, const ScanPo
   const double step_xy = config_.step_xy > 0.0 ? config_.step_xy : 0.75 * coarse_cell;
   double step_theta = config_.step_theta_deg > 0.0 ? deg_to_rad(config_.step_theta_deg)
                                                    : std::atan2(coarse_cell, median_range(points));
-  step_theta = std::clamp(step_theta, deg_to_rad(0.5), deg_to_rad(10.0));
+  step_theta = std::clamp(step_theta, deg_to_rad(0.5), deg_to_rad(5.0));
   const PoseHint* hint = use_hint && config_.hint ? &*config_.hint : nullptr;
 
   // Sample positions: cell centres on a step_xy grid over known free cells.

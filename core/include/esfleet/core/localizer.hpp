@@ -65,7 +65,7 @@ struct LocalizerConfig {
   // --- global search ---
   int coarse_level = 3;          ///< pyramid level scored exhaustively (kGrid)
   double step_xy = 0.0;          ///< sample grid, metres; 0 = 3/4 of a coarse cell (0.3 m)
-  double step_theta_deg = 0.0;   ///< heading step; 0 = one coarse cell at the median range
+  double step_theta_deg = 0.0;   ///< heading step; 0 = a coarse cell at the median range, <= 5 deg
   int coarse_points = 60;        ///< end points used for coarse scoring (evenly strided)
   double free_max_value = 0.25;  ///< a sample cell is free when known and hit/(hit+err) <= this
   int coarse_keep = 300;         ///< distinct coarse poses re-ranked on mid_level
