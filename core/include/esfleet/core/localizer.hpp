@@ -78,7 +78,7 @@ struct LocalizerConfig {
 
   // --- declaring a pose ---
   int confirm_scans = 4;        ///< consecutive good scans of the leading hypothesis
-  double min_agreement = 0.65;  ///< good scan: FitnessValue::agreement at least this
+  double min_agreement = 0.8;   ///< good scan: FitnessValue::agreement at least this
   double min_known = 0.5;       ///< ... and this share of end points on known cells
   double min_travel = 0.3;      ///< metres moved (or min_turn turned) since the hypothesis began
   double min_turn_deg = 30.0;
