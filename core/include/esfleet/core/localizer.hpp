@@ -71,16 +71,16 @@ struct LocalizerConfig {
   int coarse_keep = 300;         ///< distinct coarse poses re-ranked on mid_level
   int mid_level = 1;             ///< pyramid level of the re-ranking (evidence over a small window)
   int candidates = 10;           ///< distinct candidates refined by the ES and followed
-  double distinct_xy = 1.0;      ///< candidates closer than this (and distinct_theta) are one
-  double distinct_theta_deg = 20.0;
+  double distinct_xy = 0.5;      ///< candidates closer than this (and distinct_theta) are one
+  double distinct_theta_deg = 10.0;
   int es_restarts = 20;      ///< kEs: independent ES runs per global search
   int es_iterations = 3000;  ///< kEs: iterations per run (the population is the ES's mu)
 
   // --- declaring a pose ---
-  int confirm_scans = 4;        ///< consecutive good scans of the leading hypothesis
-  double min_agreement = 0.8;   ///< good scan: FitnessValue::agreement at least this
-  double min_known = 0.5;       ///< ... and this share of end points on known cells
-  double min_travel = 0.3;      ///< metres moved (or min_turn turned) since the hypothesis began
+  int confirm_scans = 4;       ///< consecutive good scans of the leading hypothesis
+  double min_agreement = 0.8;  ///< good scan: FitnessValue::agreement at least this
+  double min_known = 0.5;      ///< ... and this share of end points on known cells
+  double min_travel = 0.3;     ///< metres moved (or min_turn turned) since the hypothesis began
   double min_turn_deg = 30.0;
   double max_ambiguity = 0.85;  ///< runner-up score / leader's score must stay below this
   int max_hypotheses = 20;      ///< pool size
