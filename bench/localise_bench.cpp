@@ -68,6 +68,8 @@ bool within(const Pose2& a, const Pose2& b, double xy, double theta_deg) {
 }
 
 constexpr double kTolXy = 0.3;
+/// Case b: scans from the start that must lie in the half map's known space.
+constexpr std::size_t kCoveredScans = 20;
 constexpr double kTolThetaDeg = 5.0;
 
 struct StartResult {
@@ -259,13 +261,18 @@ int run_localise_bench(LocaliseBenchOptions& o) {
     const std::size_t hi = scans.size() - static_cast<std::size_t>(o.budget);
     while (starts.size() < static_cast<std::size_t>(o.starts)) {
       const std::size_t s = lo + pick.below(static_cast<std::uint32_t>(hi - lo));
-      // Case b: only starts whose surroundings the half map covers (judged at the reference
-      // pose: at least half of the end points on known cells).
+      // Case b: only starts where the robot is, and stays for its first kCoveredScans scans,
+      // in what the half map covers (at each scan's final pose at least half of the end points
+      // on known cells): a robot driving into unmapped space cannot be localised yet.
       if (&map == &*half_map) {
-        const ScanPoints pts =
-            prepare_scan(scans[s], o.config.slam.min_range, o.config.slam.max_range);
-        const FitnessValue v = FitnessEvaluator(map, pts).evaluate(reference(s));
-        if (v.n_points == 0 || 2 * v.n_known < v.n_points) {
+        bool covered = true;
+        for (std::size_t j = s; j < s + kCoveredScans && j < scans.size() && covered; ++j) {
+          const ScanPoints pts =
+              prepare_scan(scans[j], o.config.slam.min_range, o.config.slam.max_range);
+          const FitnessValue v = FitnessEvaluator(map, pts).evaluate(ref[j].pose);
+          covered = v.n_points > 0 && 2 * v.n_known >= v.n_points;
+        }
+        if (!covered) {
           ++skipped;
           if (skipped > 100000) break;
           continue;

@@ -1,10 +1,38 @@
 #!/usr/bin/env bash
-# The main job on bundled data: build, map the MIT CSAIL log with the leader (offline, with
-# odometry), write the map and trajectory to out/csail, and score it against the relations.
+# The main job on bundled data:
+#  1. build; map the MIT CSAIL log with the leader (offline, with odometry), write the map and
+#     trajectory to out/csail, and score it against the relations;
+#  2. share a map over DDS on this host (shared memory): a leader maps the first 1000 scans and
+#     publishes them as tiles; a follower robot that has never seen the place receives the map
+#     and finds its own pose in it from its scans 600-1000 (no hint), then tracks itself. Its
+#     map must equal the leader's counter for counter.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 tools/build.sh
 out=${1:-out/csail}
-build/bin/esfleet-leader --offline --log data/mit-csail/mit-csail.clf.gz --odometry on --out "$out"
+log=data/mit-csail/mit-csail.clf.gz
+build/bin/esfleet-leader --offline --log "$log" --odometry on --out "$out"
 build/bin/esfleet-eval --trajectory "$out/trajectory.txt" --relations data/mit-csail/mit-csail.relations
 echo "map: $out/map.png (ROS map_server files: $out/map.yaml, $out/map.pgm)"
+
+echo
+echo "== map sharing: leader and follower over DDS (domain ${ESFLEET_DEMO_DOMAIN:-77}) =="
+dds=(--domain "${ESFLEET_DEMO_DOMAIN:-77}" --profile deploy/fastdds/localhost-shm.xml)
+build/bin/esfleet-leader --log "$log" --odometry on --max-scans 1000 "${dds[@]}" \
+  --out "$out/shared/leader" --linger 120 >"$out/leader.log" 2>&1 &
+leader=$!
+trap 'kill -INT $leader 2>/dev/null || true' EXIT
+build/bin/esfleet-follower "${dds[@]}" --log "$log" --odometry on --first-scan 600 \
+  --max-scans 1000 --rate 0 --wait-complete --robot-id follower-1 \
+  --save-map "$out/shared/follower-1" --trajectory "$out/shared/follower-1/trajectory.txt" \
+  --timeout 120 2>&1 | grep -E "map complete|localised|lost|scans ended|saved|error"
+kill -INT $leader
+wait $leader || true
+trap - EXIT
+if cmp -s "$out/shared/leader/map.digest" "$out/shared/follower-1/map.digest"; then
+  echo "follower-1's map equals the leader's ($(wc -l <"$out/shared/leader/map.digest") tiles," \
+    "every counter); its track: $out/shared/follower-1/map.png"
+else
+  echo "follower-1's map differs from the leader's" >&2
+  exit 1
+fi
