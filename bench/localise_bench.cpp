@@ -80,7 +80,14 @@ struct StartResult {
   double cpu_s = 0.0;
   double log_s = 0.0;
   double error_xy = 0.0, error_theta_deg = 0.0;
+  /// How well the map agrees with the start scan at its reference pose (FitnessValue
+  /// agreement): low where the map is wrong or the place changed, not the localiser's doing.
+  float reference_agreement = 0.0f;
 };
+
+/// Starts whose scan agrees with the map at the reference at least this much count as
+/// "the map agrees" in the summary.
+constexpr float kMapAgrees = 0.7f;
 
 /// The reference pose of scan i in the frame of the map being localised in.
 using Reference = std::function<Pose2(std::size_t)>;
@@ -124,9 +131,13 @@ void parallel_for(int threads, std::size_t n, F&& f) {
 
 nlohmann::json summarize_case(const std::vector<StartResult>& results, std::size_t skipped) {
   std::vector<double> cpu, log_s, scans;
-  std::size_t ok = 0, wrong = 0;
+  std::size_t ok = 0, wrong = 0, agree = 0, agree_ok = 0, agree_wrong = 0;
   nlohmann::json failures = nlohmann::json::array();
   for (const StartResult& r : results) {
+    if (r.reference_agreement >= kMapAgrees) {
+      ++agree;
+      if (r.declared) (r.correct ? agree_ok : agree_wrong)++;
+    }
     if (r.declared) {
       cpu.push_back(r.cpu_s);
       log_s.push_back(r.log_s);
@@ -138,7 +149,8 @@ nlohmann::json summarize_case(const std::vector<StartResult>& results, std::size
                           {"declared", r.declared},
                           {"error_m", r.error_xy},
                           {"error_deg", r.error_theta_deg},
-                          {"scans", r.scans}});
+                          {"scans", r.scans},
+                          {"reference_agreement", r.reference_agreement}});
     }
   }
   const double n = static_cast<double>(std::max<std::size_t>(1, results.size()));
@@ -155,6 +167,11 @@ nlohmann::json summarize_case(const std::vector<StartResult>& results, std::size
           {"log_time_p95_s", l.p95},
           {"scans_median", s.median},
           {"scans_p95", s.p95},
+          {"starts_where_map_agrees", agree},
+          {"success_rate_where_map_agrees",
+           static_cast<double>(agree_ok) / static_cast<double>(std::max<std::size_t>(1, agree))},
+          {"wrong_rate_where_map_agrees",
+           static_cast<double>(agree_wrong) / static_cast<double>(std::max<std::size_t>(1, agree))},
           {"failures", failures}};
 }
 
@@ -168,6 +185,12 @@ void print_case(const char* name, const nlohmann::json& j) {
       j["median_s"].get<double>(), j["p95_s"].get<double>(), j["max_s"].get<double>(),
       j["log_time_median_s"].get<double>(), j["scans_median"].get<double>(),
       j["scans_p95"].get<double>());
+  std::printf(
+      "  where the map agrees with the start scan at its reference (agreement >= %.1f): "
+      "%d starts, success %.1f %%, wrong %.1f %%\n",
+      static_cast<double>(kMapAgrees), j["starts_where_map_agrees"].get<int>(),
+      100.0 * j["success_rate_where_map_agrees"].get<double>(),
+      100.0 * j["wrong_rate_where_map_agrees"].get<double>());
   std::fflush(stdout);
 }
 
@@ -287,6 +310,14 @@ int run_localise_bench(LocaliseBenchOptions& o) {
       LocalizerConfig c = o.config;
       c.seed = o.seed * 1000003u + i;
       results[i] = run_start(c, map, scans, reference, starts[i], o.budget);
+      {
+        const ScanPoints pts =
+            prepare_scan(scans[starts[i]], o.config.slam.min_range, o.config.slam.max_range);
+        FitnessOptions fo;
+        fo.interpolate = true;
+        results[i].reference_agreement =
+            FitnessEvaluator(map, pts, fo).evaluate(reference(starts[i])).agreement();
+      }
       const int d = ++done;
       if (d % 10 == 0) {
         std::lock_guard<std::mutex> lock(print_mutex);
