@@ -390,8 +390,10 @@ void Localizer::localise(const GridMap& map, const ScanPoints& points, const Las
   step.score = h.score;
   const bool moved = h.travel >= config_.min_travel || h.turn >= deg_to_rad(config_.min_turn_deg);
   const bool clear = h.score > 0.0f && rival <= static_cast<float>(config_.max_ambiguity) * h.score;
-  if (h.good_streak >= config_.confirm_scans && moved && clear && config_.verify &&
-      !step.global_search) {
+  if (h.good_streak < config_.confirm_scans || !moved || !clear) return;
+  if (config_.verify) {
+    // This scan's global search just added candidates: let them be followed first.
+    if (step.global_search) return;
     // Last check before declaring: a fresh global search on this scan must not find a
     // distinct pose that explains it nearly as well (a place the candidates or a wrong hint
     // missed). Always the global grid search, whatever the hint or the search mode: it is
@@ -415,24 +417,16 @@ void Localizer::localise(const GridMap& map, const ScanPoints& points, const Las
       }
     }
     if (!rivals.empty()) {
-      add_hypotheses(rivals, map, points, scan);
+      add_hypotheses(rivals, map, points, scan);  // may reallocate pool_: h is not used after
       step.hypotheses = pool_.size();
       return;
     }
   }
-  if (pool_.empty()) return;
-  lead = 0;
-  for (std::size_t i = 1; i < pool_.size(); ++i) {
-    if (pool_[i].score > pool_[lead].score) lead = i;
-  }
-  const Hypothesis& hd = pool_[lead];
-  if (hd.good_streak >= config_.confirm_scans && moved && clear) {
-    tracked_ = hd;
-    pool_.clear();
-    bad_streak_ = 0;
-    state_ = LocalizerState::kTracking;
-    step.declared = true;
-  }
+  tracked_ = h;
+  pool_.clear();
+  bad_streak_ = 0;
+  state_ = LocalizerState::kTracking;
+  step.declared = true;
 }
 
 void Localizer::track(const GridMap& map, const ScanPoints& points, const LaserScan& scan,
