@@ -46,6 +46,9 @@ void add_localise_params(ParamTable& t, LocalizerConfig* c) {
   t.add_switch("localise_verify", &c->verify,
                "search globally once more before declaring a pose; a rival explaining the scan "
                "nearly as well delays the declaration");
+  t.add_switch("localise_local_check", &c->local_check,
+               "before declaring, move the pose to a clearly better-fitting one within 0.5 m / "
+               "3 deg and confirm again");
   t.add_int("localise_hypothesis_iterations", &c->hypothesis_iterations,
             "ES iterations per scan for each hypothesis while localising");
   t.add_double("localise_prune_ratio", &c->prune_ratio,

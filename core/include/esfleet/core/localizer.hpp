@@ -89,6 +89,9 @@ struct LocalizerConfig {
   /// limited by the hint); a distinct pose that explains it nearly as well (max_ambiguity)
   /// joins the hypotheses and the declaration waits.
   bool verify = true;
+  /// Before declaring, probe +-0.5 m / +-3 deg around the leader: a pose that explains the scan
+  /// clearly better (evidence) takes the hypothesis over, which must then confirm again.
+  bool local_check = true;
   int hypothesis_iterations = 300;  ///< ES iterations per scan for each hypothesis (localising)
   double prune_ratio = 0.7;  ///< hypotheses below this share of the best mean evidence drop out
 
