@@ -47,6 +47,8 @@ void LocalizerConfig::validate() const {
   check(min_known >= 0.0 && min_known <= 1.0, "localise.min_known must be in [0, 1]");
   check(min_travel >= 0.0 && min_turn_deg >= 0.0, "localise.min_travel and min_turn must be >= 0");
   check(max_ambiguity > 0.0 && max_ambiguity <= 1.0, "localise.max_ambiguity must be in (0, 1]");
+  check(verify_ambiguity > 0.0 && verify_ambiguity <= 1.0,
+        "localise.verify_ambiguity must be in (0, 1]");
   check(max_hypotheses >= 1, "localise.max_hypotheses must be >= 1");
   check(research_every >= 1, "localise.research_every must be >= 1");
   check(hypothesis_iterations >= 0, "localise.hypothesis_iterations must be >= 0");
@@ -457,7 +459,7 @@ void Localizer::localise(const GridMap& map, const ScanPoints& points, const Las
       // A rival is anything outside the tolerance of a right pose: a look-alike 0.8 m and
       // 10 deg away (CSAIL) must stop the declaration as much as one across the map.
       if (same_place(p, lead_pose, kRivalXy, kRivalTheta)) continue;
-      if (evidence(eval.evaluate(p)) >= static_cast<float>(config_.max_ambiguity) * lead_now) {
+      if (evidence(eval.evaluate(p)) >= static_cast<float>(config_.verify_ambiguity) * lead_now) {
         rivals.push_back(p);
       }
     }

@@ -46,6 +46,9 @@ void add_localise_params(ParamTable& t, LocalizerConfig* c) {
   t.add_switch("localise_verify", &c->verify,
                "search globally once more before declaring a pose; a rival explaining the scan "
                "nearly as well delays the declaration");
+  t.add_double("localise_verify_ambiguity", &c->verify_ambiguity,
+               "final check: a pose elsewhere whose evidence on the scan reaches this share of "
+               "the leader's delays the declaration");
   t.add_switch("localise_local_check", &c->local_check,
                "before declaring, move the pose to a clearly better-fitting one within 0.5 m / "
                "3 deg and confirm again");

@@ -89,6 +89,9 @@ struct LocalizerConfig {
   /// limited by the hint); a distinct pose that explains it nearly as well (max_ambiguity)
   /// joins the hypotheses and the declaration waits.
   bool verify = true;
+  /// The final check's rival: a pose whose evidence on this scan is at least this share of the
+  /// leader's (a single scan, so stricter than max_ambiguity over several).
+  double verify_ambiguity = 0.85;
   /// Before declaring, probe +-0.5 m / +-3 deg around the leader: a pose that explains the scan
   /// clearly better (evidence) takes the hypothesis over, which must then confirm again.
   bool local_check = true;
