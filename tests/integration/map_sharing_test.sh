@@ -7,20 +7,7 @@
 # usage: map_sharing_test.sh BIN_DIR LOG PROFILE DOMAIN [MAX_SCANS]
 set -euo pipefail
 bin=$1 log=$2 profile=$3 domain=$4 max_scans=${5:-300}
-work=$(mktemp -d "${TMPDIR:-/tmp}/esfleet-map-sharing.XXXXXX")
-pids=()
-cleanup() {
-  for p in "${pids[@]}"; do kill -INT "$p" 2>/dev/null || true; done
-  sleep 0.5
-  for p in "${pids[@]}"; do kill -KILL "$p" 2>/dev/null || true; done
-  rm -rf "$work"
-}
-trap cleanup EXIT
-fail() {
-  echo "FAIL: $*" >&2
-  for f in "$work"/*.log; do echo "--- $f" >&2; tail -n 20 "$f" >&2; done
-  exit 1
-}
+source "$(dirname "$0")/common.sh" map-sharing
 
 common=(--domain "$domain" --profile "$profile")
 slam=(--log "$log" --odometry on --max-scans "$max_scans" --seed 7)

@@ -9,41 +9,7 @@
 # usage: scan_topic_test.sh BIN_DIR LOG PROFILE DOMAIN [MAX_SCANS]
 set -euo pipefail
 bin=$1 log=$2 profile=$3 domain=$4 max_scans=${5:-300}
-work=$(mktemp -d "${TMPDIR:-/tmp}/esfleet-scan-topic.XXXXXX")
-pids=()
-cleanup() {
-  for p in "${pids[@]}"; do kill -INT "$p" 2>/dev/null || true; done
-  for _ in $(seq 1 30); do
-    alive=0
-    for p in "${pids[@]}"; do kill -0 "$p" 2>/dev/null && alive=1; done
-    [ "$alive" = 0 ] && break
-    sleep 0.1
-  done
-  for p in "${pids[@]}"; do kill -KILL "$p" 2>/dev/null || true; done
-  rm -rf "$work"
-}
-trap cleanup EXIT
-fail() {
-  echo "FAIL: $*" >&2
-  for f in "$work"/*.log; do
-    [ -f "$f" ] || continue
-    echo "--- $f" >&2
-    tail -n 30 "$f" >&2
-  done
-  exit 1
-}
-# wait_for PID SECONDS WHAT: waits (bounded) for a child to exit; fails if it does not, or if it
-# exits with a status other than 0.
-wait_for() {
-  local pid=$1 seconds=$2 what=$3 rc=0
-  for _ in $(seq 1 $((seconds * 10))); do
-    kill -0 "$pid" 2>/dev/null || break
-    sleep 0.1
-  done
-  kill -0 "$pid" 2>/dev/null && fail "$what still running after $seconds s"
-  wait "$pid" || rc=$?
-  [ "$rc" = 0 ] || fail "$what exited with $rc"
-}
+source "$(dirname "$0")/common.sh" scan-topic
 # json_int FILE KEY: the integer value of the first "KEY": N in FILE.
 json_int() {
   grep -o "\"$2\": [0-9]*" "$1" | head -n 1 | grep -o '[0-9]*$'
