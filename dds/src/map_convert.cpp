@@ -19,27 +19,46 @@ std::uint64_t map_version(const GridMap& map) {
   return sum;
 }
 
-msg::MapTile tile_to_msg(const GridMap& map, TileKey key, const MapIdentity& id,
-                         TileEncoding encoding, std::int64_t stamp_ns) {
+namespace {
+
+const Tile& tile_or_throw(const GridMap& map, TileKey key) {
   const Tile* tile = map.find_tile(key);
   if (tile == nullptr) {
     throw std::invalid_argument("no tile (" + std::to_string(key.tx) + ", " +
                                 std::to_string(key.ty) + ") in the map");
   }
-  msg::MapTile m;
+  return *tile;
+}
+
+/// The fields MapTile and MapTileDelta share: key, identity, the tile's version and layout,
+/// and `hit`/`err` encoded as the payload.
+template <typename Msg>
+void fill_tile_fields(Msg& m, const GridMap& map, TileKey key, const Tile& tile,
+                      const MapIdentity& id, std::span<const std::uint32_t> hit,
+                      std::span<const std::uint32_t> err, TileEncoding encoding,
+                      std::int64_t stamp_ns) {
   m.map_id(id.map_id);
   m.tx(key.tx);
   m.ty(key.ty);
   m.protocol(msg::kProtocolVersion);
   m.epoch(id.epoch);
-  m.version(tile->version);
+  m.version(tile.version);
   m.cell_size(static_cast<float>(map.cell_size()));
   m.tile_edge(static_cast<std::uint16_t>(map.tile_edge()));
-  EncodedTile e = encode_tile(tile->hit, tile->err, encoding);
+  EncodedTile e = encode_tile(hit, err, encoding);
   m.encoding(static_cast<std::uint8_t>(e.encoding));
   m.cells(static_cast<std::uint32_t>(map.cells_per_tile()));
   m.payload(std::move(e.payload));
   m.leader_stamp_ns(static_cast<std::uint64_t>(stamp_ns));
+}
+
+}  // namespace
+
+msg::MapTile tile_to_msg(const GridMap& map, TileKey key, const MapIdentity& id,
+                         TileEncoding encoding, std::int64_t stamp_ns) {
+  const Tile& tile = tile_or_throw(map, key);
+  msg::MapTile m;
+  fill_tile_fields(m, map, key, tile, id, tile.hit, tile.err, encoding, stamp_ns);
   return m;
 }
 
@@ -47,39 +66,23 @@ msg::MapTileDelta tile_delta_to_msg(const GridMap& map, TileKey key, std::uint64
                                     std::span<const std::uint32_t> base_hit,
                                     std::span<const std::uint32_t> base_err, const MapIdentity& id,
                                     TileEncoding encoding, std::int64_t stamp_ns) {
-  const Tile* tile = map.find_tile(key);
-  if (tile == nullptr) {
-    throw std::invalid_argument("no tile (" + std::to_string(key.tx) + ", " +
-                                std::to_string(key.ty) + ") in the map");
-  }
-  if (base_hit.size() != tile->hit.size() || base_err.size() != tile->err.size()) {
+  const Tile& tile = tile_or_throw(map, key);
+  if (base_hit.size() != tile.hit.size() || base_err.size() != tile.err.size()) {
     throw std::invalid_argument("delta base has " + std::to_string(base_hit.size()) +
-                                " cells, the tile " + std::to_string(tile->hit.size()));
+                                " cells, the tile " + std::to_string(tile.hit.size()));
   }
-  if (base_version >= tile->version) {
+  if (base_version >= tile.version) {
     throw std::invalid_argument("delta base version " + std::to_string(base_version) +
-                                " is not older than the tile's " + std::to_string(tile->version));
+                                " is not older than the tile's " + std::to_string(tile.version));
   }
-  std::vector<std::uint32_t> dhit(tile->hit.size()), derr(tile->err.size());
+  std::vector<std::uint32_t> dhit(tile.hit.size()), derr(tile.err.size());
   for (std::size_t i = 0; i < dhit.size(); ++i) {
-    dhit[i] = tile->hit[i] - base_hit[i];  // modulo 2^32: counters may also decrease
-    derr[i] = tile->err[i] - base_err[i];
+    dhit[i] = tile.hit[i] - base_hit[i];  // modulo 2^32: counters may also decrease
+    derr[i] = tile.err[i] - base_err[i];
   }
   msg::MapTileDelta m;
-  m.map_id(id.map_id);
-  m.tx(key.tx);
-  m.ty(key.ty);
-  m.protocol(msg::kProtocolVersion);
-  m.epoch(id.epoch);
-  m.version(tile->version);
+  fill_tile_fields(m, map, key, tile, id, dhit, derr, encoding, stamp_ns);
   m.base_version(base_version);
-  m.cell_size(static_cast<float>(map.cell_size()));
-  m.tile_edge(static_cast<std::uint16_t>(map.tile_edge()));
-  EncodedTile e = encode_tile(dhit, derr, encoding);
-  m.encoding(static_cast<std::uint8_t>(e.encoding));
-  m.cells(static_cast<std::uint32_t>(map.cells_per_tile()));
-  m.payload(std::move(e.payload));
-  m.leader_stamp_ns(static_cast<std::uint64_t>(stamp_ns));
   return m;
 }
 
