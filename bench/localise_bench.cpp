@@ -246,21 +246,7 @@ int run_localise_bench(LocaliseBenchOptions& o) {
     fo.interpolate = true;
     const FitnessEvaluator eval(*half_map, pts, fo);
     const Pose2 r = ref[i].pose;
-    Pose2 best = r;
-    float best_e = -1.0f;
-    for (int it = -5; it <= 5; ++it) {
-      for (int iy = -10; iy <= 10; ++iy) {
-        for (int ix = -10; ix <= 10; ++ix) {
-          const Pose2 p{r.x + 0.05 * ix, r.y + 0.05 * iy,
-                        normalize_angle(r.theta + deg_to_rad(it))};
-          const float e = evidence(eval.evaluate(p));
-          if (e > best_e) {
-            best_e = e;
-            best = p;
-          }
-        }
-      }
-    }
+    const Pose2 best = best_evidence_near(eval, r, 0.5, 0.05, 5).pose;
     std::lock_guard<std::mutex> lock(cache_mutex);
     const double moved = std::hypot(best.x - r.x, best.y - r.y);
     if (moved > 0.1) ++realigned;

@@ -70,6 +70,23 @@ float evidence(const FitnessValue& v) {
   return v.n_points > 0 ? static_cast<float>(v.n_hit) / static_cast<float>(v.n_points) : 0.0f;
 }
 
+EvidencePose best_evidence_near(const FitnessEvaluator& eval, const Pose2& centre, double half_xy,
+                                double step_xy, int half_turn_deg) {
+  EvidencePose best{centre, -1.0f};
+  const int n = static_cast<int>(std::lround(half_xy / step_xy));
+  for (int it = -half_turn_deg; it <= half_turn_deg; ++it) {
+    for (int iy = -n; iy <= n; ++iy) {
+      for (int ix = -n; ix <= n; ++ix) {
+        const Pose2 p{centre.x + ix * step_xy, centre.y + iy * step_xy,
+                      normalize_angle(centre.theta + it * deg_to_rad(1.0))};
+        const float e = evidence(eval.evaluate(p));
+        if (e > best.evidence) best = {p, e};
+      }
+    }
+  }
+  return best;
+}
+
 namespace {
 
 double thread_cpu_ms() {
@@ -137,6 +154,12 @@ std::vector<Localizer::HypothesisView> Localizer::hypotheses() const {
     out.push_back({h.motion.last.pose, h.score, h.good_streak, h.travel, h.value});
   }
   return out;
+}
+
+FitnessEvaluator Localizer::fine_evaluator(const GridMap& map, const ScanPoints& points) const {
+  return FitnessEvaluator(
+      map, points,
+      slam_fitness_options(config_.slam, config_.slam.interpolation != Interpolation::kNone));
 }
 
 bool Localizer::good(const FitnessValue& v) const {
@@ -258,9 +281,7 @@ std::vector<Pose2> Localizer::grid_candidates(const GridMap& map, const ScanPoin
     if (static_cast<int>(kept.size()) >= config_.candidates) break;
   }
   // The ES refines each kept candidate at full resolution.
-  const FitnessEvaluator fine(
-      map, points,
-      slam_fitness_options(config_.slam, config_.slam.interpolation != Interpolation::kNone));
+  const FitnessEvaluator fine = fine_evaluator(map, points);
   std::vector<Pose2> out;
   for (const Pose2& c : kept) {
     const auto initial =
@@ -326,9 +347,7 @@ void Localizer::score_scan(Hypothesis& h, const FitnessValue& v, const Pose2& be
 
 void Localizer::add_hypotheses(const std::vector<Pose2>& poses, const GridMap& map,
                                const ScanPoints& points, const LaserScan& scan) {
-  const FitnessEvaluator eval(
-      map, points,
-      slam_fitness_options(config_.slam, config_.slam.interpolation != Interpolation::kNone));
+  const FitnessEvaluator eval = fine_evaluator(map, points);
   for (const Pose2& p : poses) {
     const bool known = std::any_of(pool_.begin(), pool_.end(), [&](const Hypothesis& h) {
       return same_place(h.motion.last.pose, p, 0.3, deg_to_rad(10.0));
@@ -402,33 +421,17 @@ void Localizer::localise(const GridMap& map, const ScanPoints& points, const Las
   const bool moved = h.travel >= config_.min_travel || h.turn >= deg_to_rad(config_.min_turn_deg);
   const bool clear = h.score > 0.0f && rival <= static_cast<float>(config_.max_ambiguity) * h.score;
   if (h.good_streak < config_.confirm_scans || !moved || !clear) return;
+  const FitnessEvaluator fine = fine_evaluator(map, points);
   if (config_.local_check) {
     // Is the leader the best explanation of this scan nearby? Along a corridor the fitness
     // optimum can sit a few decimetres from where the map fits the scan best (CSAIL: evidence
     // 0.98 at the tracked pose, 1.00 0.34 m further). If a pose in the window explains the
     // scan better, the hypothesis moves there and must confirm again.
     Hypothesis& lead_h = pool_[lead];
-    const FitnessEvaluator eval(
-        map, points,
-        slam_fitness_options(config_.slam, config_.slam.interpolation != Interpolation::kNone));
     const Pose2 c = lead_h.motion.last.pose;
-    Pose2 best = c;
-    float best_e = evidence(eval.evaluate(c));
-    const float lead_e = best_e;
-    const int n = static_cast<int>(std::lround(kLocalCheckXy / kLocalCheckStep));
-    for (int it = -kLocalCheckTurns; it <= kLocalCheckTurns; ++it) {
-      for (int iy = -n; iy <= n; ++iy) {
-        for (int ix = -n; ix <= n; ++ix) {
-          const Pose2 p{c.x + ix * kLocalCheckStep, c.y + iy * kLocalCheckStep,
-                        normalize_angle(c.theta + it * deg_to_rad(1.0))};
-          const float e = evidence(eval.evaluate(p));
-          if (e > best_e) {
-            best_e = e;
-            best = p;
-          }
-        }
-      }
-    }
+    const float lead_e = evidence(fine.evaluate(c));
+    const auto [best, best_e] =
+        best_evidence_near(fine, c, kLocalCheckXy, kLocalCheckStep, kLocalCheckTurns);
     if (best_e > lead_e + kLocalCheckMargin &&
         std::hypot(best.x - c.x, best.y - c.y) > kLocalCheckMove) {
       lead_h.motion.last.pose = best;
@@ -451,15 +454,12 @@ void Localizer::localise(const GridMap& map, const ScanPoints& points, const Las
         global_candidates(map, points, /*use_hint=*/false, GlobalSearch::kGrid);
     step.global_search = true;
     scans_since_search_ = 0;
-    const FitnessEvaluator eval(
-        map, points,
-        slam_fitness_options(config_.slam, config_.slam.interpolation != Interpolation::kNone));
     std::vector<Pose2> rivals;
     for (const Pose2& p : fresh) {
       // A rival is anything outside the tolerance of a right pose: a look-alike 0.8 m and
       // 10 deg away (CSAIL) must stop the declaration as much as one across the map.
       if (same_place(p, lead_pose, kRivalXy, kRivalTheta)) continue;
-      if (evidence(eval.evaluate(p)) >= static_cast<float>(config_.verify_ambiguity) * lead_now) {
+      if (evidence(fine.evaluate(p)) >= static_cast<float>(config_.verify_ambiguity) * lead_now) {
         rivals.push_back(p);
       }
     }

@@ -168,6 +168,8 @@ class Localizer {
                       const LaserScan& scan);
   void score_scan(Hypothesis& h, const FitnessValue& v, const Pose2& before, const Pose2& now);
   bool good(const FitnessValue& v) const;
+  /// The full-resolution evaluator hypotheses are scored with (the SLAM's fitness options).
+  FitnessEvaluator fine_evaluator(const GridMap& map, const ScanPoints& points) const;
   void localise(const GridMap& map, const ScanPoints& points, const LaserScan& scan,
                 LocalizerStep& step);
   void track(const GridMap& map, const ScanPoints& points, const LaserScan& scan,
@@ -191,5 +193,16 @@ float score_of(const FitnessValue& v);
 /// hit > 0 (agreement times known share), in [0, 1]. Unlike the fitness it counts end points
 /// in unknown or free space against the pose, which tells look-alike places apart.
 float evidence(const FitnessValue& v);
+
+/// The pose of highest evidence() on a grid around `centre`: positions within +-half_xy in
+/// steps of step_xy, headings within +-half_turn_deg in 1-degree steps; among equals the first
+/// in scan order (heading, then y, then x). The localiser's check before declaring a pose, and
+/// the benchmark's re-alignment of reference poses to a map.
+struct EvidencePose {
+  Pose2 pose;
+  float evidence = -1.0f;
+};
+EvidencePose best_evidence_near(const FitnessEvaluator& eval, const Pose2& centre, double half_xy,
+                                double step_xy, int half_turn_deg);
 
 }  // namespace esfleet
