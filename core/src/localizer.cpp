@@ -62,10 +62,6 @@ void LocalizerConfig::validate() const {
   }
 }
 
-float score_of(const FitnessValue& v) {
-  return v.n_points > 0 ? v.fitness / static_cast<float>(v.n_points) : 0.0f;
-}
-
 float evidence(const FitnessValue& v) {
   return v.n_points > 0 ? static_cast<float>(v.n_hit) / static_cast<float>(v.n_points) : 0.0f;
 }

@@ -187,8 +187,6 @@ class Localizer {
   int bad_streak_ = 0;
 };
 
-/// Fitness per end point: fitness / n_points, in [0, 1].
-float score_of(const FitnessValue& v);
 /// The localiser's evidence for a pose: the share of all end points that fall on cells with
 /// hit > 0 (agreement times known share), in [0, 1]. Unlike the fitness it counts end points
 /// in unknown or free space against the pose, which tells look-alike places apart.
