@@ -71,6 +71,13 @@ struct Traits<msg::LaserScanMsg> {
   static constexpr bool kTransientLocal = false;
   static constexpr std::int32_t kDepth = 50;
 };
+template <>
+struct Traits<msg::TruthPose> {
+  using PubSub = msg::TruthPosePubSubType;
+  static constexpr std::string_view kTopic = kTruthTopic;
+  static constexpr bool kTransientLocal = false;
+  static constexpr std::int32_t kDepth = 50;
+};
 
 /// Sets the QoS both sides share: reliable, durability and KEEP_LAST depth per topic, and
 /// unlimited resource limits. The default max_instances = 10 makes writes to an 11th key fail
@@ -359,10 +366,12 @@ template class Writer<msg::MapTileDelta>;
 template class Writer<msg::MapMeta>;
 template class Writer<msg::RobotPose>;
 template class Writer<msg::LaserScanMsg>;
+template class Writer<msg::TruthPose>;
 template class Reader<msg::MapTile>;
 template class Reader<msg::MapTileDelta>;
 template class Reader<msg::MapMeta>;
 template class Reader<msg::RobotPose>;
 template class Reader<msg::LaserScanMsg>;
+template class Reader<msg::TruthPose>;
 
 }  // namespace esfleet::dds

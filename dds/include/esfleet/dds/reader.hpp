@@ -86,6 +86,7 @@ extern template class Reader<msg::MapTileDelta>;
 extern template class Reader<msg::MapMeta>;
 extern template class Reader<msg::RobotPose>;
 extern template class Reader<msg::LaserScanMsg>;
+extern template class Reader<msg::TruthPose>;
 
 /// Receives map tiles from kTileTopic.
 using TileReader = Reader<msg::MapTile>;
@@ -97,5 +98,7 @@ using MetaReader = Reader<msg::MapMeta>;
 using PoseReader = Reader<msg::RobotPose>;
 /// Receives laser scans from kScanTopic.
 using ScanReader = Reader<msg::LaserScanMsg>;
+/// True poses of simulated robots on kTruthTopic (evaluation only).
+using TruthReader = Reader<msg::TruthPose>;
 
 }  // namespace esfleet::dds

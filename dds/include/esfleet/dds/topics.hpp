@@ -8,6 +8,7 @@
 //   esfleet/map/meta         msg::MapMeta       leader -> followers, keyed map_id
 //   esfleet/robots/pose      msg::RobotPose     every robot, keyed robot_id
 //   esfleet/robots/scan      msg::LaserScanMsg  every robot (optional), keyed robot_id
+//   esfleet/sim/truth        msg::TruthPose     simulator -> evaluation only, keyed robot_id
 
 #include <cstdint>
 #include <string_view>
@@ -35,5 +36,8 @@ inline constexpr std::string_view kMetaTopic = "esfleet/map/meta";
 inline constexpr std::string_view kPoseTopic = "esfleet/robots/pose";
 /// Laser scans (msg::LaserScanMsg): reliable, volatile, keep last 50 per robot.
 inline constexpr std::string_view kScanTopic = "esfleet/robots/scan";
+/// True poses of simulated robots (msg::TruthPose): reliable, volatile, keep last 50 per robot.
+/// For evaluation only: SLAM and localisation never subscribe to it.
+inline constexpr std::string_view kTruthTopic = "esfleet/sim/truth";
 
 }  // namespace esfleet::dds

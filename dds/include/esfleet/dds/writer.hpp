@@ -76,6 +76,7 @@ extern template class Writer<msg::MapTileDelta>;
 extern template class Writer<msg::MapMeta>;
 extern template class Writer<msg::RobotPose>;
 extern template class Writer<msg::LaserScanMsg>;
+extern template class Writer<msg::TruthPose>;
 
 /// Publishes map tiles on kTileTopic.
 using TileWriter = Writer<msg::MapTile>;
@@ -87,5 +88,7 @@ using MetaWriter = Writer<msg::MapMeta>;
 using PoseWriter = Writer<msg::RobotPose>;
 /// Publishes laser scans on kScanTopic.
 using ScanWriter = Writer<msg::LaserScanMsg>;
+/// True poses of simulated robots on kTruthTopic (evaluation only).
+using TruthWriter = Writer<msg::TruthPose>;
 
 }  // namespace esfleet::dds
