@@ -185,6 +185,32 @@ LaserScan scan_from_msg(const msg::LaserScanMsg& m) {
   return s;
 }
 
+msg::TruthPose truth_to_msg(const std::string& robot_id, const TimedPose& pose) {
+  msg::TruthPose m;
+  m.robot_id(robot_id);
+  m.protocol(msg::kProtocolVersion);
+  m.stamp(pose.stamp);
+  m.x(pose.pose.x);
+  m.y(pose.pose.y);
+  m.theta(pose.pose.theta);
+  return m;
+}
+
+TimedPose truth_from_msg(const msg::TruthPose& m) {
+  auto fail = [](const std::string& what) {
+    throw std::invalid_argument("truth pose message: " + what);
+  };
+  if (m.protocol() != msg::kProtocolVersion) {
+    fail("protocol " + std::to_string(m.protocol()) + ", expected " +
+         std::to_string(msg::kProtocolVersion));
+  }
+  if (m.robot_id().size() == 0) fail("robot_id is empty");
+  if (!std::isfinite(m.stamp())) fail("stamp is not finite");
+  if (!std::isfinite(m.x()) || !std::isfinite(m.y())) fail("x / y is not finite");
+  if (!std::isfinite(m.theta())) fail("theta is not finite");
+  return {m.stamp(), Pose2{m.x(), m.y(), m.theta()}};
+}
+
 MapReplica::MapReplica(std::string map_id, GridMapConfig local)
     : map_id_(std::move(map_id)), local_(local) {
   local_.validate();

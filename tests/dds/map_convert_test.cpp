@@ -8,6 +8,7 @@
 
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <map>
 #include <random>
 
@@ -369,6 +370,40 @@ TEST(MapMessages, ScanRoundTripAndValidation) {
   m = scan_to_msg("r1", 3, s);
   m.ranges().resize(20000, 1.0f);
   EXPECT_THROW(scan_from_msg(m), std::invalid_argument);
+}
+
+TEST(MapMessages, TruthRoundTripAndValidation) {
+  const TimedPose truth{1700000000.2, Pose2{-3.25, 12.5, 2.75}};
+  const msg::TruthPose m = truth_to_msg("robot-3", truth);
+  EXPECT_EQ(m.robot_id(), "robot-3");
+  EXPECT_EQ(m.protocol(), msg::kProtocolVersion);
+  const TimedPose back = truth_from_msg(m);
+  EXPECT_EQ(back.stamp, truth.stamp);  // exact: evaluation pairs truth and scans by stamp
+  EXPECT_EQ(back.pose, truth.pose);
+
+  auto expect_rejected = [](const msg::TruthPose& bad, const std::string& field) {
+    try {
+      truth_from_msg(bad);
+      ADD_FAILURE() << "accepted a message with a bad " << field;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
+    }
+  };
+  msg::TruthPose bad = m;
+  bad.protocol(static_cast<std::uint16_t>(msg::kProtocolVersion + 1));
+  expect_rejected(bad, "protocol");
+  bad = m;
+  bad.robot_id("");
+  expect_rejected(bad, "robot_id");
+  bad = m;
+  bad.stamp(std::nan(""));
+  expect_rejected(bad, "stamp");
+  bad = m;
+  bad.y(std::numeric_limits<double>::infinity());
+  expect_rejected(bad, "y");
+  bad = m;
+  bad.theta(std::nan(""));
+  expect_rejected(bad, "theta");
 }
 
 }  // namespace

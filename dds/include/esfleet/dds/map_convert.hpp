@@ -59,6 +59,13 @@ msg::LaserScanMsg scan_to_msg(const std::string& robot_id, std::uint32_t seq,
 /// more than 10000, non-finite angles).
 LaserScan scan_from_msg(const msg::LaserScanMsg& m);
 
+/// Simulator: the true pose of robot `robot_id` (kTruthTopic; stamp = the scan's stamp).
+msg::TruthPose truth_to_msg(const std::string& robot_id, const TimedPose& pose);
+/// Evaluation: the true pose in a truth message (the robot is m.robot_id()). Throws
+/// std::invalid_argument naming the field for another protocol version, an empty robot_id or a
+/// non-finite stamp, x, y or theta.
+TimedPose truth_from_msg(const msg::TruthPose& m);
+
 /// What a follower did with a received tile or summary.
 enum class Applied {
   kApplied,    ///< the replica changed
