@@ -64,6 +64,8 @@ struct LocaliseStats {
   std::size_t scans_localising = 0;
   std::optional<esfleet::TimedPose> first_pose;
   std::vector<double> tracking_cpu_ms;
+  std::uint64_t dropped_tracking = 0;   ///< topic scans skipped (newer one waiting) while tracking
+  std::vector<double> tracking_lag_ms;  ///< topic scans: arrival to pose published, tracking
 };
 
 }  // namespace
@@ -85,7 +87,7 @@ int main(int argc, char** argv) {
   int domain = 0;
   std::string profile, map_id, save_dir, log_path, scan_robot, hint_text, trajectory_path;
   std::string robot_id = "follower";
-  bool exit_when_complete = false, wait_complete = false;
+  bool exit_when_complete = false, wait_complete = false, latest_only = true;
   double timeout = 0.0, rate = 1.0, idle_exit = 0.0;
   std::size_t max_scans = 0, first_scan = 0;
   cli.add_option("--domain", domain, "DDS domain id (0-232)")->capture_default_str();
@@ -113,6 +115,10 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   cli.add_option("--idle-exit", idle_exit,
                  "--scan-topic: end once no scan arrived for this many seconds (0 = never)")
+      ->capture_default_str();
+  cli.add_option("--latest-only", latest_only,
+                 "--scan-topic: when scans are waiting, process the newest and skip the older "
+                 "ones (real time: no backlog after a global search); false = every scan in order")
       ->capture_default_str();
   cli.add_option("--robot-id", robot_id, "this robot's id on the pose topic")
       ->capture_default_str();
@@ -175,7 +181,7 @@ int main(int argc, char** argv) {
     local.pyramid_levels = std::max(lconfig.coarse_level, lconfig.mid_level);
     follow = std::make_unique<follower::MapFollower>(*node, map_id, local);
     if (!scan_robot.empty()) {
-      auto t = std::make_unique<scans::TopicScanSource>(*node, scan_robot, idle_exit);
+      auto t = std::make_unique<scans::TopicScanSource>(*node, scan_robot, idle_exit, latest_only);
       topic = t.get();
       source = std::move(t);
     }
@@ -206,6 +212,7 @@ int main(int argc, char** argv) {
 
   auto localise_json = [&]() -> nlohmann::json {
     const app::Summary tr = app::summarize(ls.tracking_cpu_ms);
+    const app::Summary lag = app::summarize(ls.tracking_lag_ms);
     nlohmann::json j = {{"robot_id", robot_id},
                         {"state", to_string(localizer.state())},
                         {"scans", ls.scans},
@@ -219,6 +226,13 @@ int main(int argc, char** argv) {
                         {"tracked_scans", trajectory.size()},
                         {"tracking_cpu_ms_median", tr.median},
                         {"tracking_cpu_ms_p95", tr.p95}};
+    if (topic != nullptr) {
+      j["scans_dropped"] = topic->stats().dropped;
+      j["scans_dropped_tracking"] = ls.dropped_tracking;
+      j["tracking_lag_ms_median"] = lag.median;
+      j["tracking_lag_ms_p95"] = lag.p95;
+      j["tracking_lag_ms_max"] = lag.max;
+    }
     if (ls.first_pose) {
       j["first_pose"] = {{"stamp", ls.first_pose->stamp},
                          {"x", ls.first_pose->pose.x},
@@ -349,8 +363,16 @@ int main(int argc, char** argv) {
     if (source && (!wait_complete || complete_s >= 0)) {
       // One scan at a time, then DDS again: tiles keep arriving while the robot localises.
       if (source->ready()) {
+        const std::uint64_t dropped_before = topic != nullptr ? topic->stats().dropped : 0;
+        const bool was_tracking = localizer.state() == LocalizerState::kTracking;
         if (auto scan = source->next(g_stop)) {
           process_scan(*scan);
+          if (topic != nullptr && was_tracking) {
+            ls.dropped_tracking += topic->stats().dropped - dropped_before;
+            ls.tracking_lag_ms.push_back(std::chrono::duration<double, std::milli>(
+                                             Clock::now() - topic->last_arrival_of_returned())
+                                             .count());
+          }
         } else if (source->ended()) {
           scans_ended = true;
           spdlog::info("scans ended after {} scans: state {}", ls.scans,
@@ -385,8 +407,10 @@ int main(int argc, char** argv) {
   }
   if (topic != nullptr) {
     const scans::TopicScanStats t = topic->stats();
-    spdlog::info("scan topic: {} received, {} malformed, {} missing (seq gaps)", t.received,
-                 t.malformed, t.seq_gaps);
+    spdlog::info(
+        "scan topic: {} received, {} malformed, {} missing (seq gaps), {} skipped for newer "
+        "ones ({} while tracking)",
+        t.received, t.malformed, t.seq_gaps, t.dropped, ls.dropped_tracking);
   }
   if (pose_writer) pose_writer->wait_for_acknowledgments(std::chrono::milliseconds(500));
   const bool saved = save(g_stop.load() ? "signal"

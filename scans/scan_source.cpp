@@ -63,9 +63,11 @@ std::optional<LaserScan> LogScanSource::next(const std::atomic<bool>& stop) {
   return scans_[next_++];
 }
 
-TopicScanSource::TopicScanSource(dds::Node& node, std::string robot_id, double idle_exit_s)
+TopicScanSource::TopicScanSource(dds::Node& node, std::string robot_id, double idle_exit_s,
+                                 bool latest_only)
     : robot_id_(std::move(robot_id)),
       idle_exit_s_(idle_exit_s),
+      latest_only_(latest_only),
       reader_(node, [this](const msg::LaserScanMsg& m, const dds::SampleMeta&) { on_message(m); }) {
 }
 
@@ -75,10 +77,11 @@ void TopicScanSource::on_message(const msg::LaserScanMsg& m) {
     ++other_robots_;
     return;
   }
-  queue_.push_back(m);
+  const auto now = Clock::now();
+  queue_.push_back({m, now});
   ++received_;
   max_queue_ = std::max(max_queue_, queue_.size());
-  last_arrival_ = Clock::now();
+  last_arrival_ = now;
   arrived_.notify_one();
 }
 
@@ -94,10 +97,23 @@ std::optional<LaserScan> TopicScanSource::next(const std::atomic<bool>& stop) {
     std::unique_lock lock(mutex_);
     arrived_.wait_for(lock, kPoll, [this] { return !queue_.empty(); });
     if (!queue_.empty()) {
-      const msg::LaserScanMsg m = std::move(queue_.front());
+      std::size_t skipped = 0;
+      std::optional<std::uint32_t> newest_skipped_seq;
+      while (latest_only_ && queue_.size() > 1) {
+        newest_skipped_seq = queue_.front().msg.seq();
+        queue_.pop_front();
+        ++skipped;
+      }
+      dropped_ += skipped;
+      const Arrived a = std::move(queue_.front());
       queue_.pop_front();
       lock.unlock();
-      if (auto scan = convert(m)) return scan;
+      // Skipped scans are not transport losses: move the seq bookkeeping past them.
+      if (newest_skipped_seq && (!last_seq_ || *newest_skipped_seq > *last_seq_)) {
+        last_seq_ = *newest_skipped_seq;
+      }
+      returned_arrival_ = a.at;
+      if (auto scan = convert(a.msg)) return scan;
       continue;
     }
     if (idle_exit_s_ > 0.0 && last_arrival_ &&
@@ -142,6 +158,7 @@ TopicScanStats TopicScanSource::stats() const {
   s.received = received_;
   s.other_robots = other_robots_;
   s.max_queue = max_queue_;
+  s.dropped = dropped_;
   return s;
 }
 

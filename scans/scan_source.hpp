@@ -77,23 +77,33 @@ struct TopicScanStats {
   std::uint64_t seq_gaps = 0;      ///< scans missing according to the seq numbers
   std::uint64_t seq_restarts = 0;  ///< seq went backwards (the publisher restarted)
   std::size_t max_queue = 0;       ///< most scans waiting for the SLAM at once
+  std::uint64_t dropped = 0;       ///< skipped by latest_only: a newer scan was waiting
 };
 
 /// The scans that robot `robot_id` publishes on the scan topic (dds::kScanTopic), in arrival
 /// order. next() ends (std::nullopt) when `stop` is set or, with idle_exit_s > 0, once at least
 /// one scan arrived and none has arrived for idle_exit_s seconds with the queue empty.
 /// A message that scan_from_msg refuses is dropped and counted; the first is logged.
+/// With latest_only, next() returns the newest waiting scan and drops (counts) the older ones:
+/// a consumer that fell behind (a global localisation takes ~1 s) catches up at once instead of
+/// working through a backlog of stale scans. Odometry in the scans is absolute, so a consumer
+/// loses no motion information by skipping scans.
 class TopicScanSource : public ScanSource {
  public:
   /// Creates the scan reader on `node` (which must outlive this object). Throws
   /// std::runtime_error if DDS refuses.
-  TopicScanSource(dds::Node& node, std::string robot_id, double idle_exit_s);
+  TopicScanSource(dds::Node& node, std::string robot_id, double idle_exit_s,
+                  bool latest_only = false);
   std::optional<LaserScan> next(const std::atomic<bool>& stop) override;
   /// True once next() ended because no scan arrived for idle_exit_s.
   bool ended() const override { return idle_; }
   bool ready() const override;
   TopicScanStats stats() const;
   int matched_writers() const { return reader_.matched_writers(); }
+  /// When the scan last returned by next() arrived (for the consumer's processing lag).
+  std::chrono::steady_clock::time_point last_arrival_of_returned() const {
+    return returned_arrival_;
+  }
 
  private:
   using Clock = std::chrono::steady_clock;
@@ -104,7 +114,9 @@ class TopicScanSource : public ScanSource {
 
   const std::string robot_id_;
   const double idle_exit_s_;
+  const bool latest_only_;
   bool idle_ = false;
+  Clock::time_point returned_arrival_;     ///< main thread only
   std::optional<std::uint32_t> last_seq_;  ///< main thread only
   std::uint64_t malformed_ = 0;            ///< main thread only
   std::uint64_t seq_gaps_ = 0;             ///< main thread only
@@ -112,7 +124,12 @@ class TopicScanSource : public ScanSource {
 
   mutable std::mutex mutex_;  ///< guards the members up to the reader
   std::condition_variable arrived_;
-  std::deque<msg::LaserScanMsg> queue_;
+  struct Arrived {
+    msg::LaserScanMsg msg;
+    Clock::time_point at;
+  };
+  std::deque<Arrived> queue_;
+  std::uint64_t dropped_ = 0;
   std::optional<Clock::time_point> last_arrival_;
   std::uint64_t received_ = 0;
   std::uint64_t other_robots_ = 0;
