@@ -8,6 +8,7 @@ packages=(
   libcli11-dev libspdlog-dev libyaml-cpp-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libfastrtps-dev libfastcdr-dev fastddsgen fastdds-tools default-jre-headless
+  iproute2 nftables  # deploy/netns/testbed.sh and its test (network namespaces, tc, loss)
 )
 missing=()
 for p in "${packages[@]}"; do
