@@ -5,7 +5,11 @@
 #  2. share a map over DDS on this host (shared memory): a leader maps the first 1000 scans and
 #     publishes them as tiles; a follower robot that has never seen the place receives the map
 #     and finds its own pose in it from its scans 600-1000 (no hint), then tracks itself. Its
-#     map must equal the leader's counter for counter.
+#     map must equal the leader's counter for counter;
+#  3. a simulated fleet (esfleet-fleet): the leader maps the log again and shares the map, the
+#     simulator drives 4 robots through the log's world at 5 Hz, and 4 followers localise from
+#     their simulated scans with no hint and track; live status against the simulator's truth,
+#     summary in out/csail/fleet/summary.json.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 tools/build.sh
@@ -36,3 +40,8 @@ else
   echo "follower-1's map differs from the leader's" >&2
   exit 1
 fi
+
+echo
+echo "== a simulated fleet: leader, simulator, 4 followers (domain ${ESFLEET_DEMO_FLEET_DOMAIN:-76}, 90 s) =="
+build/bin/esfleet-fleet --robots 4 --duration 90 --domain "${ESFLEET_DEMO_FLEET_DOMAIN:-76}" \
+  --out "$out/fleet"

@@ -192,7 +192,7 @@ int main(int argc, char** argv) {
       "share one frame): the defaults are the bundled MIT CSAIL log and its world "
       "(data/worlds/README.md)."};
   int robots = 4, domain = 78;
-  double duration = 0.0, rate = 5.0, leader_rate = 0.0;
+  double duration = 0.0, rate = 5.0, leader_rate = 0.0, window = 0.0;
   unsigned seed = 1;
   std::string summary_path, out_dir = "out/fleet", bin_dir;
   std::string world = "data/worlds/mit-csail/map.yaml", log = "data/mit-csail/mit-csail.clf.gz";
@@ -203,6 +203,11 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 64))
       ->capture_default_str();
   cli.add_option("--duration", duration, "stop after S seconds (0 = on Ctrl-C only)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  cli.add_option("--window", window,
+                 "stop once every follower has tracked for S seconds (the real-time window; 0 = "
+                 "no such stop)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   cli.add_option("--summary", summary_path,
@@ -473,6 +478,7 @@ int main(int argc, char** argv) {
       draw(ddt);
     }
     if (duration > 0 && now_s() >= duration) break;
+    if (window > 0 && window_start_s >= 0 && now_s() - window_start_s >= window) break;
   }
   const double end_s = now_s();
   const double window_s = window_start_s >= 0 ? end_s - window_start_s : 0.0;
