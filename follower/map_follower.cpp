@@ -6,17 +6,26 @@ namespace esfleet::follower {
 
 MapFollower::MapFollower(dds::Node& node, std::string map_id, GridMapConfig local)
     : replica_(std::move(map_id), local),
-      tiles_(node,
-             [this](const msg::MapTile& t, const dds::SampleMeta& m) {
-               push({t, m.writer_guid});
-             }),
-      deltas_(node,
-              [this](const msg::MapTileDelta& d, const dds::SampleMeta& m) {
-                push({d, m.writer_guid});
-              }),
+      tiles_(node, [this](const msg::MapTile& t,
+                          const dds::SampleMeta& m) { push_tile(t, m.writer_guid); }),
+      deltas_(node, [this](const msg::MapTileDelta& d,
+                           const dds::SampleMeta& m) { push_tile(d, m.writer_guid); }),
       meta_(node, [this](const msg::MapMeta& t, const dds::SampleMeta& m) {
         push({t, m.writer_guid});
       }) {}
+
+template <class Msg>
+void MapFollower::push_tile(const Msg& m, const std::string& writer) {
+  if (m.payload().size() <= dds::kMaxTilePayloadBytes) {
+    push({m, writer});
+    return;
+  }
+  Msg key;  // no copy of the payload: a hostile peer's 100 MB sample must not pile up here
+  key.map_id(m.map_id());
+  key.tx(m.tx());
+  key.ty(m.ty());
+  push({key, writer, m.payload().size()});
+}
 
 void MapFollower::push(Received r) {
   {
@@ -42,6 +51,23 @@ bool MapFollower::spin_once(std::chrono::milliseconds timeout) {
 
 void MapFollower::handle(const Received& r) {
   std::string error;
+  const auto oversized = [&r](const auto& m, const char* what) {
+    return std::string(what) + " (" + std::to_string(m.tx()) + ", " + std::to_string(m.ty()) +
+           ") dropped: payload of " + std::to_string(r.oversized) + " bytes, more than the " +
+           std::to_string(dds::kMaxTilePayloadBytes) + " any tile can need";
+  };
+  if (r.oversized > 0) {
+    if (const auto* tile = std::get_if<msg::MapTile>(&r.sample)) {
+      ++stats_.tiles_received;
+      ++stats_.tiles_rejected;
+      log_once(r.writer, "tile", oversized(*tile, "tile"));
+    } else if (const auto* delta = std::get_if<msg::MapTileDelta>(&r.sample)) {
+      ++stats_.deltas_received;
+      ++stats_.deltas_rejected;
+      log_once(r.writer, "delta", oversized(*delta, "tile delta"));
+    }
+    return;
+  }
   if (const auto* tile = std::get_if<msg::MapTile>(&r.sample)) {
     ++stats_.tiles_received;
     switch (replica_.apply(*tile, &error)) {
@@ -54,6 +80,15 @@ void MapFollower::handle(const Received& r) {
       }
       case dds::Applied::kStale:
         ++stats_.tiles_stale;
+        // An equal version is normal (the leader resends a tile whole at the version a delta
+        // brought); an older one comes from a stale or hostile sender.
+        if (const Tile* held = replica_.map().find_tile({tile->tx(), tile->ty()});
+            held != nullptr && held->version > tile->version()) {
+          log_once(r.writer, "stale tile",
+                   "tile (" + std::to_string(tile->tx()) + ", " + std::to_string(tile->ty()) +
+                       ") version " + std::to_string(tile->version()) + " is older than the " +
+                       std::to_string(held->version) + " held: ignored");
+        }
         break;
       case dds::Applied::kIgnored:
         ++stats_.tiles_ignored;

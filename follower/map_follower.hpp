@@ -2,8 +2,12 @@
 // The follower's side of map sharing: DDS callbacks hand received tiles, tile deltas and
 // summaries to the
 // application thread through a locked queue; the application thread applies them to a
-// MapReplica, counts what it dropped (logging once per sending writer and reason) and measures
-// the tile latency (leader publish -> applied here).
+// MapReplica, counts what it dropped (logging once per sending writer and kind of drop) and
+// measures the tile latency (leader publish -> applied here).
+//
+// Hostile peers: a sample whose payload exceeds kMaxTilePayloadBytes is not queued (only its
+// key, to count and log it), so the queue holds at most plausible tiles; everything else is
+// judged by MapReplica. Rejected and stale samples never change the map.
 
 #include <condition_variable>
 #include <cstdint>
@@ -22,9 +26,9 @@ namespace esfleet::follower {
 struct FollowStats {
   std::uint64_t tiles_received = 0;
   std::uint64_t tiles_applied = 0;
-  std::uint64_t tiles_stale = 0;
-  std::uint64_t tiles_ignored = 0;  ///< other map id / older epoch
-  std::uint64_t tiles_rejected = 0;
+  std::uint64_t tiles_stale = 0;     ///< version not newer than held (duplicates, stale senders)
+  std::uint64_t tiles_ignored = 0;   ///< other map id / older epoch
+  std::uint64_t tiles_rejected = 0;  ///< malformed or oversized (see MapReplica::apply)
   std::uint64_t deltas_received = 0;
   std::uint64_t deltas_applied = 0;
   std::uint64_t deltas_stale = 0;
@@ -54,7 +58,13 @@ class MapFollower {
   struct Received {
     std::variant<msg::MapTile, msg::MapTileDelta, msg::MapMeta> sample;
     std::string writer;
+    /// Payload size of a sample dropped in the callback for exceeding kMaxTilePayloadBytes
+    /// (`sample` then holds its key only); 0 otherwise.
+    std::size_t oversized = 0;
   };
+  /// Queues a tile or delta, or only its key when its payload is oversized.
+  template <class Msg>
+  void push_tile(const Msg& m, const std::string& writer);
   void push(Received r);
   void handle(const Received& r);
   void log_once(const std::string& writer, const char* kind, const std::string& what);

@@ -20,6 +20,11 @@ constexpr std::size_t kMaxLineBytes = std::size_t{1} << 20;  // 1 MiB
 constexpr unsigned kReadChunk = 256u * 1024u;                // bytes per gzread
 constexpr long long kMaxBeams = 10000;
 constexpr std::size_t kTimeFields = 3;  // ipc_timestamp host logger_timestamp
+// ROBOTLASER1 angle limits: a scan must fit the scan message (scan_from_msg: |angle_min| <= 7,
+// |angle_increment| <= 1) and its angles must be finite, non-degenerate floats.
+constexpr double kMaxStartAngle = 2.0 * std::numbers::pi;
+constexpr double kMinResolution = 1e-6;
+constexpr double kMaxResolution = 1.0;
 
 std::string describe(const std::string& file, std::size_t line, const std::string& what) {
   return line == 0 ? file + ": " + what : file + ":" + std::to_string(line) + ": " + what;
@@ -295,9 +300,17 @@ struct CarmenReader::Impl {
     LaserScan scan;
     number(kType, "laser_type", 1);
     const double start_angle = number(kType, "start_angle", 2);
+    if (std::abs(start_angle) > kMaxStartAngle) {
+      fail_field(kType, "start_angle", 2, "is outside [-2pi, 2pi]: " + quote(tokens[2]));
+    }
     number(kType, "field_of_view", 3);
     const double resolution = number(kType, "angular_resolution", 4);
     if (resolution == 0.0) fail_field(kType, "angular_resolution", 4, "is zero");
+    // Also catches a resolution that is zero as a float (1e-300) or would overflow it (1e300).
+    if (!(std::abs(resolution) >= kMinResolution && std::abs(resolution) <= kMaxResolution)) {
+      fail_field(kType, "angular_resolution", 4,
+                 "is outside 1e-6 .. 1 rad in magnitude: " + quote(tokens[4]));
+    }
     const double maximum_range = number(kType, "maximum_range", 5);
     if (!(maximum_range > 0.0)) {
       fail_field(kType, "maximum_range", 5, "is not positive: " + quote(tokens[5]));
@@ -386,11 +399,17 @@ struct CarmenReader::Impl {
   }
 };
 
-CarmenReader::CarmenReader(const std::string& path, CarmenReaderOptions options)
-    : impl_(std::make_unique<Impl>()) {
+namespace {
+void check_options(const CarmenReaderOptions& options) {
   if (!std::isfinite(options.no_return_range) || !(options.no_return_range > 0.0f)) {
     throw std::invalid_argument("CarmenReaderOptions::no_return_range must be finite and > 0");
   }
+}
+}  // namespace
+
+CarmenReader::CarmenReader(const std::string& path, CarmenReaderOptions options)
+    : impl_(std::make_unique<Impl>()) {
+  check_options(options);
   impl_->path = path;
   impl_->options = options;
   errno = 0;
@@ -404,6 +423,21 @@ CarmenReader::CarmenReader(const std::string& path, CarmenReaderOptions options)
   gzbuffer(impl_->file, kReadChunk);
 }
 
+CarmenReader::CarmenReader(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+
+CarmenReader CarmenReader::from_text(std::string text, std::string name,
+                                     CarmenReaderOptions options) {
+  check_options(options);
+  auto impl = std::make_unique<Impl>();
+  impl->path = std::move(name);
+  impl->options = options;
+  // No gzFile: the whole text is the buffer and the end of the input is already reached, so
+  // read_line never calls zlib.
+  impl->buffer = std::move(text);
+  impl->at_eof = true;
+  return CarmenReader(std::move(impl));
+}
+
 CarmenReader::~CarmenReader() = default;
 CarmenReader::CarmenReader(CarmenReader&&) noexcept = default;
 CarmenReader& CarmenReader::operator=(CarmenReader&&) noexcept = default;
@@ -415,17 +449,30 @@ std::size_t CarmenReader::skipped_lines() const { return impl_->skipped_lines; }
 std::size_t CarmenReader::odom_messages() const { return impl_->odom_messages; }
 bool CarmenReader::saw_corrected_poses() const { return impl_->saw_corrected_poses; }
 
-std::vector<LaserScan> read_carmen_log(const std::string& path, CarmenReaderOptions options,
-                                       std::size_t max_scans) {
-  CarmenReader reader(path, options);
+namespace {
+std::vector<LaserScan> read_all(CarmenReader& reader, const std::string& name,
+                                std::size_t max_scans) {
   std::vector<LaserScan> scans;
   while (max_scans == 0 || scans.size() < max_scans) {
     std::optional<LaserScan> scan = reader.next_scan();
     if (!scan) break;
     scans.push_back(std::move(*scan));
   }
-  if (scans.empty()) throw LogError(path, 0, "no laser scans (FLASER/ROBOTLASER1) in file");
+  if (scans.empty()) throw LogError(name, 0, "no laser scans (FLASER/ROBOTLASER1) in file");
   return scans;
+}
+}  // namespace
+
+std::vector<LaserScan> read_carmen_log(const std::string& path, CarmenReaderOptions options,
+                                       std::size_t max_scans) {
+  CarmenReader reader(path, options);
+  return read_all(reader, path, max_scans);
+}
+
+std::vector<LaserScan> read_carmen_text(std::string text, const std::string& name,
+                                        CarmenReaderOptions options, std::size_t max_scans) {
+  CarmenReader reader = CarmenReader::from_text(std::move(text), name, options);
+  return read_all(reader, name, max_scans);
 }
 
 }  // namespace esfleet

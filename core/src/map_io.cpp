@@ -276,8 +276,8 @@ struct MapMeta {
   MapMode mode = MapMode::kTrinary;
 };
 
-MapMeta parse_map_yaml(const std::string& yaml_path) {
-  const std::string text = read_whole_file(yaml_path, kMaxYamlBytes, "map file");
+/// The map YAML document `text`; `yaml_path` names it in errors and anchors a relative image.
+MapMeta parse_map_yaml(const std::string& text, const std::string& yaml_path) {
   YAML::Node root;
   try {
     root = YAML::Load(text);
@@ -590,8 +590,9 @@ Pixels decode_png(const std::string& path, const std::string& data) {
   return px;
 }
 
-Pixels read_image(const std::string& path, const std::string& yaml_path) {
-  const std::string data = read_whole_file(path, kMaxImageBytes, "image", " named in " + yaml_path);
+/// The image file contents `data` (PGM or PNG, told apart by their magic bytes); `path` names
+/// it in errors.
+Pixels decode_image(const std::string& path, const std::string& data) {
   if (data.size() >= 2 && data[0] == 'P' && (data[1] == '5' || data[1] == '2')) {
     return PgmParser(path, data).parse();
   }
@@ -794,9 +795,10 @@ void save_ros_map(const GridMap& map, const std::string& dir, const std::string&
   write_file_atomically(yaml_path, yaml);
 }
 
-OccupancyImage load_ros_map(const std::string& yaml_path) {
-  const MapMeta m = parse_map_yaml(yaml_path);
-  const Pixels px = read_image(m.image.string(), yaml_path);
+namespace {
+
+/// The cells of a map from its parsed YAML and decoded image (load_ros_map's last step).
+OccupancyImage occupancy_image(const MapMeta& m, const Pixels& px) {
   OccupancyImage out;
   out.resolution = m.resolution;
   out.origin_x = m.origin[0];
@@ -814,6 +816,34 @@ OccupancyImage load_ros_map(const std::string& yaml_path) {
       cells[col] = cell_value(in + col * ch, px.channels, m);
   }
   return out;
+}
+
+}  // namespace
+
+OccupancyImage load_ros_map(const std::string& yaml_path) {
+  const MapMeta m =
+      parse_map_yaml(read_whole_file(yaml_path, kMaxYamlBytes, "map file"), yaml_path);
+  const std::string image = m.image.string();
+  const std::string data =
+      read_whole_file(image, kMaxImageBytes, "image", " named in " + yaml_path);
+  return occupancy_image(m, decode_image(image, data));
+}
+
+OccupancyImage parse_ros_map(std::string_view yaml_text, std::string_view image_bytes,
+                             const std::string& yaml_name) {
+  if (yaml_text.size() > kMaxYamlBytes) {
+    throw std::runtime_error(yaml_name +
+                             ": cannot read map file: " + std::to_string(yaml_text.size()) +
+                             " bytes, more than the " + std::to_string(kMaxYamlBytes) + " allowed");
+  }
+  const MapMeta m = parse_map_yaml(std::string(yaml_text), yaml_name);
+  const std::string image = m.image.string();
+  if (image_bytes.size() > kMaxImageBytes) {
+    throw std::runtime_error(image + ": cannot read image named in " + yaml_name + ": " +
+                             std::to_string(image_bytes.size()) + " bytes, more than the " +
+                             std::to_string(kMaxImageBytes) + " allowed");
+  }
+  return occupancy_image(m, decode_image(image, std::string(image_bytes)));
 }
 
 void save_map_png(const GridMap& map, const std::vector<TimedPose>& trajectory,

@@ -268,6 +268,17 @@ Applied reject(std::string* error, std::string what) {
   if (error != nullptr) *error = std::move(what);
   return Applied::kRejected;
 }
+
+/// The longest payload a valid tile of `cells` cells can have (see kMaxTilePayloadBytes), or ""
+/// when `size` is within it.
+std::string check_payload_size(std::size_t size, std::size_t cells) {
+  // zlib's deflateBound for the longest inflated stream (kRaw's 8 bytes per cell are less).
+  const std::size_t n = 2 * kMaxVarintBytes * cells;
+  const std::size_t most = n + (n >> 12) + (n >> 14) + (n >> 25) + 64;
+  if (size <= most) return {};
+  return "payload of " + std::to_string(size) + " bytes, more than the " + std::to_string(most) +
+         " a tile of " + std::to_string(cells) + " cells can need";
+}
 }  // namespace
 
 template <class Msg>
@@ -292,6 +303,10 @@ Applied MapReplica::apply(const msg::MapTile& t, std::string* error) {
   const std::size_t cells = static_cast<std::size_t>(t.tile_edge()) * t.tile_edge();
   const TileKey key{t.tx(), t.ty()};
   if (std::string e = check_tile(t.cells(), t.tile_edge(), key); !e.empty()) {
+    return reject(error, e);
+  }
+  if (t.version() == 0) return reject(error, "version 0 (tile versions start at 1)");
+  if (std::string e = check_payload_size(t.payload().size(), cells); !e.empty()) {
     return reject(error, e);
   }
   if (!fresh) {
@@ -327,6 +342,9 @@ Applied MapReplica::apply(const msg::MapTileDelta& d, std::string* error) {
     return reject(error, "base_version " + std::to_string(d.base_version()) +
                              " is not older than version " + std::to_string(d.version()));
   }
+  if (std::string e = check_payload_size(d.payload().size(), cells); !e.empty()) {
+    return reject(error, e);
+  }
   try {
     decode_tile(static_cast<TileEncoding>(d.encoding()), d.payload(), cells, hit_, err_);
   } catch (const std::exception& e) {
@@ -351,8 +369,25 @@ Applied MapReplica::apply(const msg::MapMeta& m, std::string* error) {
   if (std::string e = check_layout(m.cell_size(), m.tile_edge(), !new_epoch); !e.empty()) {
     return reject(error, e);
   }
-  if (m.min_tx() > m.max_tx() && m.tile_count() > 0) return reject(error, "min_tx > max_tx");
-  if (m.min_ty() > m.max_ty() && m.tile_count() > 0) return reject(error, "min_ty > max_ty");
+  if (m.tile_count() > 0) {
+    if (m.min_tx() > m.max_tx()) return reject(error, "min_tx > max_tx");
+    if (m.min_ty() > m.max_ty()) return reject(error, "min_ty > max_ty");
+    const std::int64_t limit = local_.max_tile_coord;
+    for (const std::int32_t b : {m.min_tx(), m.min_ty(), m.max_tx(), m.max_ty()}) {
+      if (std::abs(static_cast<std::int64_t>(b)) > limit) {
+        return reject(error, "bounds [" + std::to_string(m.min_tx()) + ", " +
+                                 std::to_string(m.max_tx()) + "] x [" + std::to_string(m.min_ty()) +
+                                 ", " + std::to_string(m.max_ty()) + "] reach outside +-" +
+                                 std::to_string(limit));
+      }
+    }
+    const std::int64_t area = (static_cast<std::int64_t>(m.max_tx()) - m.min_tx() + 1) *
+                              (static_cast<std::int64_t>(m.max_ty()) - m.min_ty() + 1);
+    if (m.tile_count() > area) {
+      return reject(error, "tile_count " + std::to_string(m.tile_count()) + " exceeds the " +
+                               std::to_string(area) + " tiles of its bounds");
+    }
+  }
   if (new_epoch) {
     if (map_id_.empty()) map_id_ = id;
     reset(m.epoch(), m.cell_size(), m.tile_edge());

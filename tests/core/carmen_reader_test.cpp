@@ -459,5 +459,70 @@ TEST(CarmenReaderErrors, CorruptGzipChecksum) {
                    "gzip stream is truncated or corrupt (zlib: incorrect data check)");
 }
 
+// ---------------------------------------------------------------- in memory (from_text)
+
+TEST(CarmenReaderFromText, GivesTheSameScansAsTheFile) {
+  const auto from_file = read_carmen_log(fixture("mit-csail-excerpt.clf"));
+  const auto from_text =
+      read_carmen_text(read_bytes(fixture("mit-csail-excerpt.clf")), "excerpt.clf");
+  ASSERT_EQ(from_text.size(), from_file.size());
+  for (std::size_t k = 0; k < from_file.size(); ++k) {
+    EXPECT_EQ(from_text[k].ranges, from_file[k].ranges);
+    EXPECT_EQ(from_text[k].stamp, from_file[k].stamp);
+    EXPECT_EQ(from_text[k].angle_min, from_file[k].angle_min);
+    EXPECT_EQ(from_text[k].angle_increment, from_file[k].angle_increment);
+  }
+  CarmenReader reader = CarmenReader::from_text(read_bytes(fixture("robotlaser1.log")));
+  std::size_t scans = 0;
+  while (reader.next_scan()) ++scans;
+  EXPECT_EQ(scans, 2u);
+  EXPECT_EQ(reader.skipped_lines(), 2u);
+}
+
+TEST(CarmenReaderFromText, ErrorsNameTheGivenNameAndLine) {
+  expect_log_error([] { read_carmen_text("# c\nFLASER 2 1 1\n", "mem.log"); }, "mem.log", 2,
+                   "FLASER declares 2 beams");
+  expect_log_error([] { read_carmen_text("", "mem.log"); }, "mem.log", 0, "no laser scans");
+  // A last line without '\n' is read; one longer than 1 MiB is an error, as from a file.
+  EXPECT_EQ(read_carmen_text(lines_of(fixture("mit-csail-excerpt.clf")).at(0)).size(), 1u);
+  expect_log_error([] { read_carmen_text(std::string((1u << 20) + 1, 'x'), "big.log"); }, "big.log",
+                   1, "line is longer than 1048576 bytes");
+  CarmenReaderOptions bad;
+  bad.no_return_range = 0.0f;
+  EXPECT_THROW(CarmenReader::from_text("", "x", bad), std::invalid_argument);
+}
+
+// ---------------------------------------------------------------- fuzzing findings
+// Inputs found with fuzz/fuzz_carmen (docs/fuzzing.md); each is also in fuzz/corpus/fuzz_carmen.
+
+// fuzz_carmen, regress-robotlaser1-huge-start-angle: a finite double start_angle (1e300) became
+// an infinite float angle_min; 1e-300 as angular_resolution became a zero float increment.
+TEST(CarmenReaderFuzzRegressions, RobotLaser1AnglesMustFitTheScan) {
+  const std::string head = "ROBOTLASER1 0 ";
+  const std::string tail =
+      " 5 1.0 2.5 0.0 60.0 49.99 2 0.5 0.25 0.1 0.0 0.0 1.0 2.0 0.5 0.3 0.1 0.5 0.2 0.0 123.456 "
+      "host 123.457";
+  const auto line = [&](const std::string& start, const std::string& resolution) {
+    return head + start + " 3.1415927 " + resolution + " 50.0 0.01 0" + tail;
+  };
+  EXPECT_EQ(read_carmen_text(line("-1.5707963", "0.7853982")).size(), 1u);
+  expect_log_error([&] { read_carmen_text(line("1e300", "0.7853982"), "f.log"); }, "f.log", 1,
+                   "ROBOTLASER1 start_angle (field 2) is outside [-2pi, 2pi]: \"1e300\"");
+  expect_log_error([&] { read_carmen_text(line("-7", "0.7853982"), "f.log"); }, "f.log", 1,
+                   "start_angle (field 2) is outside");
+  expect_log_error([&] { read_carmen_text(line("-1.57", "1e-300"), "f.log"); }, "f.log", 1,
+                   "ROBOTLASER1 angular_resolution (field 4) is outside 1e-6 .. 1 rad");
+  expect_log_error([&] { read_carmen_text(line("-1.57", "-1e300"), "f.log"); }, "f.log", 1,
+                   "angular_resolution (field 4) is outside");
+  // The exact corpus input.
+  const std::string corpus = std::string(ESFLEET_PROJECT_DIR) + "/fuzz/corpus/fuzz_carmen/";
+  expect_log_error(
+      [&] { read_carmen_text(read_bytes(corpus + "regress-robotlaser1-huge-start-angle"), "f"); },
+      "f", 1, "start_angle (field 2) is outside");
+  expect_log_error(
+      [&] { read_carmen_text(read_bytes(corpus + "regress-robotlaser1-tiny-resolution"), "f"); },
+      "f", 1, "angular_resolution (field 4) is outside");
+}
+
 }  // namespace
 }  // namespace esfleet

@@ -16,6 +16,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace esfleet {
@@ -716,6 +717,64 @@ TEST_F(MapIoTest, AtomicWriteOverADirectoryFailsAndCleansUp) {
   fs::create_directories(dir_ / "taken");
   EXPECT_THROW(write_file_atomically(path("taken"), "x"), std::runtime_error);
   EXPECT_EQ(std::distance(fs::directory_iterator(dir_), fs::directory_iterator()), 1);
+}
+
+// --- parse_ros_map (in memory) -----------------------------------------------------------------
+
+TEST_F(MapIoTest, ParseFromMemoryEqualsLoadingTheFiles) {
+  write_bytes("img.pgm", "P2\n# CREATOR: hand\n3 2\n# maxval next\n255\n0 254 100\n205 128 50\n");
+  const std::string yaml = "image: img.pgm\nnegate: 0\nmode: scale\n" + std::string(kYamlTail);
+  write_bytes("m.yaml", yaml);
+  const OccupancyImage from_files = load_ros_map(path("m.yaml"));
+  const OccupancyImage from_memory = parse_ros_map(yaml, slurp(path("img.pgm")), "m.yaml");
+  EXPECT_EQ(from_memory.cells, from_files.cells);
+  EXPECT_EQ(from_memory.width, 3);
+  EXPECT_EQ(from_memory.height, 2);
+  EXPECT_EQ(from_memory.origin_x, from_files.origin_x);
+  EXPECT_EQ(from_memory.origin_theta, from_files.origin_theta);
+  EXPECT_EQ(from_memory.resolution, from_files.resolution);
+  // The image the YAML names is not opened: a name that exists nowhere loads the same.
+  const std::string elsewhere =
+      "image: /nonexistent/dir/x.pgm\nnegate: 0\nmode: scale\n" + std::string(kYamlTail);
+  EXPECT_EQ(parse_ros_map(elsewhere, slurp(path("img.pgm"))).cells, from_files.cells);
+}
+
+TEST_F(MapIoTest, ParseFromMemoryErrorsNameTheGivenNames) {
+  const auto error = [](std::string_view yaml, std::string_view image) -> std::string {
+    try {
+      parse_ros_map(yaml, image, "mem.yaml");
+    } catch (const std::runtime_error& e) {
+      return e.what();
+    }
+    return "(no error)";
+  };
+  EXPECT_EQ(error("", "").rfind("mem.yaml: expected a YAML mapping", 0), 0u) << error("", "");
+  const std::string yaml = "image: img.pgm\nnegate: 0\n" + std::string(kYamlTail);
+  EXPECT_EQ(error(yaml, ""), "img.pgm: cannot read image: not a PGM (P5/P2) or PNG file");
+  EXPECT_EQ(error(yaml, "P5\n2 2\n255\n\x01"),
+            "img.pgm: bad PGM image: truncated: 1 bytes of pixel data, 2x2 needs 4");
+  EXPECT_NE(error("image: a.pgm\nresolution: [", "").find("mem.yaml:2: yaml parse error"),
+            std::string::npos);
+  EXPECT_NE(error(std::string((1u << 20) + 1, ' '), "").find("more than the 1048576 allowed"),
+            std::string::npos);
+}
+
+// The committed seeds of fuzz/fuzz_map_loader (YAML, NUL, image; written by fuzz/make_seeds
+// from save_ros_map / save_map_png) load: the fuzzer starts from valid maps.
+TEST_F(MapIoTest, FuzzSeedsLoad) {
+  const fs::path corpus = fs::path(ESFLEET_PROJECT_DIR) / "fuzz/corpus/fuzz_map_loader";
+  int seeds = 0;
+  for (const char* name : {"pgm-p5", "pgm-p2-scale", "png-rgb-raw", "png-rgb-negate"}) {
+    const std::string input = slurp((corpus / name).string());
+    const std::size_t nul = input.find('\0');
+    ASSERT_NE(nul, std::string::npos) << name;
+    const OccupancyImage img = parse_ros_map(std::string_view(input).substr(0, nul),
+                                             std::string_view(input).substr(nul + 1), name);
+    EXPECT_GT(img.width, 10) << name;
+    EXPECT_EQ(img.cells.size(), static_cast<std::size_t>(img.width) * img.height) << name;
+    ++seeds;
+  }
+  EXPECT_EQ(seeds, 4);
 }
 
 }  // namespace

@@ -135,6 +135,16 @@ TEST(MapReplica, MalformedTilesAreRejectedWithAReasonAndChangeNothing) {
       {"key", [](msg::MapTile& t) { t.tx(5000000); }, "outside"},
       {"encoding", [](msg::MapTile& t) { t.encoding(7); }, "unknown encoding 7"},
       {"payload", [](msg::MapTile& t) { t.payload().resize(t.payload().size() / 2); }, "zlib"},
+      {"version 0", [](msg::MapTile& t) { t.version(0); }, "version 0"},
+      {"oversized", [](msg::MapTile& t) { t.payload().resize(16u << 20); },
+       "payload of 16777216 bytes, more than the 41036 a tile of 4096 cells can need"},
+      // A newer epoch would start a new map, but only once the tile is known to be sound.
+      {"newer epoch, bad payload",
+       [](msg::MapTile& t) {
+         t.epoch(t.epoch() + 1);
+         t.payload().resize(3);
+       },
+       "zlib"},
   };
   for (const Case& c : cases) {
     msg::MapTile bad = good;
@@ -304,6 +314,8 @@ TEST(MapReplica, MalformedDeltasAreRejectedWithAReasonAndChangeNothing) {
       {"base version", [](msg::MapTileDelta& d) { d.base_version(d.version()); }, "base_version"},
       {"encoding", [](msg::MapTileDelta& d) { d.encoding(7); }, "unknown encoding 7"},
       {"payload", [](msg::MapTileDelta& d) { d.payload().resize(d.payload().size() / 2); }, "zlib"},
+      {"oversized", [](msg::MapTileDelta& d) { d.payload().assign(50000, 0); },
+       "payload of 50000 bytes, more than the 41036"},
   };
   for (const Case& c : cases) {
     msg::MapTileDelta bad = good;
@@ -315,6 +327,51 @@ TEST(MapReplica, MalformedDeltasAreRejectedWithAReasonAndChangeNothing) {
   EXPECT_EQ(map_digest(replica.map()), before);
   EXPECT_EQ(replica.apply(good), Applied::kApplied);
   EXPECT_EQ(map_digest(replica.map()), map_digest(leader));
+}
+
+TEST(MapReplica, MalformedSummariesAreRejectedWithAReasonAndChangeNothing) {
+  const GridMap leader = random_map(15);
+  const MapIdentity id{"map", 4};
+  MapReplica replica;
+  send_all(leader, replica, id);
+  const msg::MapMeta good = meta_to_msg(leader, id, false, 10, "{}", 1);
+  ASSERT_EQ(replica.apply(good), Applied::kApplied);
+  const std::string before = map_digest(replica.map());
+
+  struct Case {
+    const char* name;
+    std::function<void(msg::MapMeta&)> spoil;
+    const char* expect;
+  };
+  const std::vector<Case> cases = {
+      {"protocol", [](msg::MapMeta& m) { m.protocol(0); }, "protocol 0"},
+      {"min > max", [](msg::MapMeta& m) { m.min_tx(m.max_tx() + 1); }, "min_tx > max_tx"},
+      {"bounds", [](msg::MapMeta& m) { m.min_ty(-2000000000); }, "reach outside +-1024"},
+      {"tile count", [](msg::MapMeta& m) { m.tile_count(4000000000u); }, "tile_count 4000000000"},
+      {"tile edge change", [](msg::MapMeta& m) { m.tile_edge(128); }, "differs"},
+      {"cell size change", [](msg::MapMeta& m) { m.cell_size(0.15f); }, "differs"},
+      {"newer epoch, absurd bounds",
+       [](msg::MapMeta& m) {
+         m.epoch(m.epoch() + 1);
+         m.max_tx(2000000000);
+       },
+       "reach outside"},
+  };
+  for (const Case& c : cases) {
+    msg::MapMeta bad = good;
+    bad.map_version(good.map_version() + 1000);  // newer, so only validation can stop it
+    c.spoil(bad);
+    std::string error;
+    EXPECT_EQ(replica.apply(bad, &error), Applied::kRejected) << c.name;
+    EXPECT_NE(error.find(c.expect), std::string::npos) << c.name << ": " << error;
+    EXPECT_EQ(replica.epoch(), 4u) << c.name;
+    EXPECT_EQ(replica.meta()->map_version(), good.map_version()) << c.name;
+  }
+  EXPECT_EQ(map_digest(replica.map()), before);
+  // An older epoch is another (earlier) map: ignored, not an error.
+  msg::MapMeta old = good;
+  old.epoch(3);
+  EXPECT_EQ(replica.apply(old), Applied::kIgnored);
 }
 
 TEST(MapMessages, TileDeltaToMsgRefusesABadBase) {

@@ -20,9 +20,11 @@
 // Validation: each known line must have exactly its format's field count; every numeric field
 // must parse completely (no trailing characters) and be finite (remissions, which are not used,
 // need only be numbers); ranges must be >= 0; a beam count must lie in [1, 10000] (FLASER: in
-// [2, 10000], since one beam cannot span the field of view). Readings at or above the no-return
-// range (81.91 in the logs) are valid and kept unchanged; LaserScan::is_no_return finds them.
-// Messages name the bad field and its position, counting the first token after the message
+// [2, 10000], since one beam cannot span the field of view); a ROBOTLASER1 start_angle must lie
+// in [-2pi, 2pi] and its angular_resolution in 1e-6 .. 1 rad in magnitude (so the scan's float
+// angles are finite and non-zero, and the scan fits the scan message). Readings at or above the
+// no-return range (81.91 in the logs) are valid and kept unchanged; LaserScan::is_no_return finds
+// them. Messages name the bad field and its position, counting the first token after the message
 // name as field 1, e.g. "log.clf:12: FLASER range[17] (field 19) is NaN".
 
 #include <cstddef>
@@ -76,6 +78,11 @@ class CarmenReader {
   /// Opens `path`. Throws LogError "<path>: cannot open: <reason>" if it cannot be opened and
   /// std::invalid_argument if options.no_return_range is not finite and > 0.
   explicit CarmenReader(const std::string& path, CarmenReaderOptions options = {});
+  /// A reader over log text already in memory (plain text, not gzip), e.g. received over the
+  /// network or fed by a fuzzer: parses exactly as from a file, never touches the filesystem.
+  /// `name` stands for the file in LogError messages. Throws std::invalid_argument as above.
+  static CarmenReader from_text(std::string text, std::string name = "<text>",
+                                CarmenReaderOptions options = {});
   ~CarmenReader();
   CarmenReader(const CarmenReader&) = delete;
   CarmenReader& operator=(const CarmenReader&) = delete;
@@ -108,6 +115,7 @@ class CarmenReader {
 
  private:
   struct Impl;
+  explicit CarmenReader(std::unique_ptr<Impl> impl);
   std::unique_ptr<Impl> impl_;
 };
 
@@ -116,5 +124,11 @@ class CarmenReader {
 /// the file holds none (an empty file included).
 std::vector<LaserScan> read_carmen_log(const std::string& path, CarmenReaderOptions options = {},
                                        std::size_t max_scans = 0);
+
+/// read_carmen_log over log text in memory (CarmenReader::from_text); `name` stands for the file
+/// in messages.
+std::vector<LaserScan> read_carmen_text(std::string text, const std::string& name = "<text>",
+                                        CarmenReaderOptions options = {},
+                                        std::size_t max_scans = 0);
 
 }  // namespace esfleet

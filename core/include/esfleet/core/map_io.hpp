@@ -16,6 +16,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "esfleet/core/geometry.hpp"
@@ -95,6 +96,14 @@ struct OccupancyImage {
 /// or invalid field ("map.yaml: field 'resolution' missing"), an unreadable, truncated or
 /// malformed image, or one over kMaxMapImagePixels. Hostile input never crashes it.
 OccupancyImage load_ros_map(const std::string& yaml_path);
+
+/// load_ros_map over files already in memory, never touching the filesystem: `yaml_text` is the
+/// YAML document and `image_bytes` the contents of the image file it names (its `image` field
+/// is still required and validated, and names the image in messages). `yaml_name` stands for
+/// the YAML file in messages. Same checks, limits and errors as load_ros_map (a YAML text over
+/// 1 MiB or an image over 512 MiB is refused).
+OccupancyImage parse_ros_map(std::string_view yaml_text, std::string_view image_bytes,
+                             const std::string& yaml_name = "map.yaml");
 
 /// Writes a colour PNG of the map to `path` (atomically), same crop and pixel layout as
 /// save_ros_map: known cells in their PGM grey level, unknown cells light blue-grey

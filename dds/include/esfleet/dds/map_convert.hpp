@@ -24,6 +24,13 @@ struct MapIdentity {
   std::uint32_t epoch = 1;
 };
 
+/// Largest tile payload any valid tile can need, for the largest tile (kMaxTileCells): kRaw takes
+/// 8 bytes per cell, the zlib encodings inflate to at most 2 * kMaxVarintBytes per cell and
+/// deflate adds less than 0.04 % to that (zlib's deflateBound). Followers drop bigger samples
+/// before queueing them; MapReplica applies the same bound for the message's tile size.
+inline constexpr std::size_t kMaxTilePayloadBytes =
+    2 * kMaxVarintBytes * kMaxTileCells + (std::size_t{1} << 16);
+
 /// Nanoseconds of CLOCK_REALTIME (the clock the latency figures use on both sides).
 std::int64_t realtime_ns();
 
@@ -87,6 +94,10 @@ class MapReplica {
 
   /// Validates and applies one tile. On kRejected, `error` (if given) says why, naming the
   /// field. Tiles received before the first summary create the map from their own layout.
+  /// Rejected: another protocol, a cell size or tile edge out of range or (same epoch) other
+  /// than the map's, cells != tile_edge^2, a key outside +-max_tile_coord, version 0 (the
+  /// leader numbers a tile's versions from 1), a payload longer than any tile of this size can
+  /// need, or one that does not decode. Nothing is decoded or allocated for a stale version.
   Applied apply(const msg::MapTile& tile, std::string* error = nullptr);
   /// Validates and applies one tile delta (same checks as a tile, plus base_version < version).
   /// Applied only when the replica holds the tile at exactly base_version: then the differences
@@ -94,7 +105,9 @@ class MapReplica {
   /// >= version; kNeedsBase when it lacks the base (no such tile, another version, another
   /// epoch or no map yet): nothing changes, the next full tile brings the tile up to date.
   Applied apply(const msg::MapTileDelta& delta, std::string* error = nullptr);
-  /// Records the leader's summary (layout, bounds, completeness).
+  /// Records the leader's summary (layout, bounds, completeness). Rejected: another protocol, a
+  /// layout out of range or (same epoch) other than the map's, and bounds that no map can have:
+  /// min > max, a bound outside +-max_tile_coord, or more tiles than the bounds hold.
   Applied apply(const msg::MapMeta& meta, std::string* error = nullptr);
 
   bool has_map() const { return map_.has_value(); }

@@ -1,0 +1,158 @@
+// libFuzzer target: tile payload decoding (every encoding) and the follower's validation and
+// apply path (MapReplica) for tiles, tile deltas and summaries built from the input bytes
+// (layout: tile_records.hpp). Invariants checked after every record:
+//  - decode_tile either throws TileDecodeError or yields `cells` counters that re-encode and
+//    decode to the same counters;
+//  - a message MapReplica does not apply leaves the map exactly as it was (same digest, epoch
+//    and summary), and a rejection says why;
+//  - an applied tile holds the message's version; every tile of the map lies in the allowed key
+//    range and has tile_edge^2 cells.
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "esfleet/core/tile_codec.hpp"
+#include "esfleet/dds/map_convert.hpp"
+#include "fuzz_check.hpp"
+#include "tile_records.hpp"
+
+using esfleet::fuzz::check;
+namespace dds = esfleet::dds;
+
+namespace {
+
+void fuzz_decode(esfleet::fuzz::RecordReader& in) {
+  std::uint8_t enc = 0;
+  std::uint32_t cells32 = 0;
+  std::vector<std::uint8_t> payload;
+  if (!in.take(enc) || !in.take(cells32) || !in.take_payload(payload)) return;
+  // Mostly tiles up to 128 x 128 (fast); with the top bit set, any count, so the limit check
+  // and the largest tiles are reached too.
+  const std::size_t cells = (cells32 >> 31) != 0 ? (cells32 & 0x7fffffffu) : cells32 % 16385;
+  const auto encoding = static_cast<esfleet::TileEncoding>(enc);
+  std::vector<std::uint32_t> hit, err;
+  try {
+    esfleet::decode_tile(encoding, payload, cells, hit, err);
+  } catch (const esfleet::TileDecodeError&) {
+    return;
+  }
+  check(hit.size() == cells && err.size() == cells, "decoded sizes == cells");
+  const esfleet::EncodedTile again = esfleet::encode_tile(hit, err, encoding);
+  std::vector<std::uint32_t> hit2, err2;
+  esfleet::decode_tile(encoding, again.payload, cells, hit2, err2);
+  check(hit2 == hit && err2 == err, "decode(encode(x)) == x");
+}
+
+/// What a message may change in the replica: its layout, summary, tile set and the counters of
+/// the one tile it addresses (MapReplica touches no other tile; hashing only that one keeps
+/// the target fast with 1024 x 1024 tiles).
+struct Snapshot {
+  std::uint32_t epoch = 0;
+  std::string map_id;
+  bool has_map = false;
+  double cell_size = 0.0;
+  int tile_edge = 0;
+  std::size_t tiles = 0;
+  std::uint64_t version_sum = 0;
+  std::uint64_t tile_version = 0;
+  std::uint64_t tile_digest = 0;
+  bool has_meta = false;
+  std::uint64_t meta_version = 0;
+
+  Snapshot(const dds::MapReplica& r, esfleet::TileKey key)
+      : epoch(r.epoch()),
+        map_id(r.map_id()),
+        has_map(r.has_map()),
+        has_meta(r.meta().has_value()),
+        meta_version(r.meta() ? r.meta()->map_version() : 0) {
+    if (!has_map) return;
+    cell_size = r.map().cell_size();
+    tile_edge = r.map().tile_edge();
+    tiles = r.map().tile_count();
+    version_sum = dds::map_version(r.map());
+    if (const esfleet::Tile* t = r.map().find_tile(key)) {
+      tile_version = t->version;
+      tile_digest = esfleet::tile_digest(t->hit, t->err);
+    }
+  }
+  bool operator==(const Snapshot&) const = default;
+};
+
+void check_replica(const dds::MapReplica& r) {
+  if (!r.has_map()) return;
+  const esfleet::GridMap& map = r.map();
+  if (map.tile_count() > 64) return;  // checked while the map is small (the target stays fast)
+  for (const esfleet::TileKey k : map.tile_keys()) {
+    check(map.key_in_range(k), "tile key in range");
+    const esfleet::Tile* t = map.find_tile(k);
+    check(t->hit.size() == map.cells_per_tile() && t->err.size() == map.cells_per_tile(),
+          "tile has tile_edge^2 cells");
+  }
+  (void)r.complete();
+}
+
+template <typename Msg>
+void after_apply(dds::Applied a, const std::string& error, const Snapshot& before,
+                 const dds::MapReplica& r, const Msg* tile) {
+  if (a == dds::Applied::kRejected) check(!error.empty(), "a rejection says why");
+  if (a != dds::Applied::kApplied) {
+    const esfleet::TileKey key =
+        tile != nullptr ? esfleet::TileKey{tile->tx(), tile->ty()} : esfleet::TileKey{};
+    check(Snapshot(r, key) == before, "a message not applied changes nothing");
+  } else if (tile != nullptr) {
+    const esfleet::Tile* t = r.map().find_tile({tile->tx(), tile->ty()});
+    check(t != nullptr && t->version == tile->version(), "an applied tile has its version");
+  }
+  check_replica(r);
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  esfleet::fuzz::RecordReader in({data, size});
+  std::uint8_t flags = 0;
+  if (!in.take(flags)) return 0;
+  // Keys within +-64 tiles: the replica's tile directory spans the bounding box of its tiles
+  // (up to 2049^2 slots with the default +-1024, ~70 MB per level), which would make every
+  // input with two far-apart tiles slow; the range check itself is the same code.
+  esfleet::GridMapConfig local;
+  local.max_tile_coord = 64;
+  dds::MapReplica replica((flags & 1) != 0 ? "" : "fuzz", local);
+  for (int records = 0; records < 64 && !in.empty(); ++records) {
+    std::uint8_t kind = 0;
+    if (!in.take(kind)) break;
+    std::string error;
+    switch (static_cast<esfleet::fuzz::RecordKind>(kind % 4)) {
+      case esfleet::fuzz::RecordKind::kDecode:
+        fuzz_decode(in);
+        break;
+      case esfleet::fuzz::RecordKind::kTile: {
+        esfleet::msg::MapTile t;
+        if (!esfleet::fuzz::read_tile_fields(in, t, nullptr)) return 0;
+        const Snapshot before(replica, {t.tx(), t.ty()});
+        after_apply(replica.apply(t, &error), error, before, replica, &t);
+        break;
+      }
+      case esfleet::fuzz::RecordKind::kDelta: {
+        esfleet::msg::MapTileDelta d;
+        std::uint64_t base = 0;
+        if (!esfleet::fuzz::read_tile_fields(in, d, &base)) return 0;
+        d.base_version(base);
+        const Snapshot before(replica, {d.tx(), d.ty()});
+        after_apply(replica.apply(d, &error), error, before, replica, &d);
+        break;
+      }
+      case esfleet::fuzz::RecordKind::kMeta: {
+        esfleet::msg::MapMeta m;
+        if (!esfleet::fuzz::read_meta(in, m)) return 0;
+        const Snapshot before(replica, {});
+        after_apply(replica.apply(m, &error), error, before, replica,
+                    static_cast<const esfleet::msg::MapTile*>(nullptr));
+        break;
+      }
+    }
+  }
+  return 0;
+}

@@ -1,0 +1,165 @@
+// Writes the committed seeds of fuzz_tile and fuzz_map_loader from a real map: the scans of a
+// CARMEN excerpt inserted at their odometry poses.
+//  - fuzz_tile (layout: tile_records.hpp): every tile encoded by tile_codec the way the leader
+//    sends it (tile_to_msg, tile_delta_to_msg, meta_to_msg), in each encoding;
+//  - fuzz_map_loader (YAML, NUL, image): the map saved by save_ros_map (P5 PGM) at a coarse cell
+//    size, the same as a P2 PGM with a comment, and as save_map_png's colour PNG, in each mode.
+//
+// usage: make_seeds LOG CORPUS_DIR    (fuzz/corpus holds its output for
+//        tests/data/carmen/mit-csail-excerpt.clf; run from the fuzz build: bin/make_seeds)
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "esfleet/core/carmen_reader.hpp"
+#include "esfleet/core/map_io.hpp"
+#include "esfleet/core/map_update.hpp"
+#include "esfleet/core/scan_points.hpp"
+#include "esfleet/dds/map_convert.hpp"
+#include "tile_records.hpp"
+
+namespace {
+
+using esfleet::fuzz::RecordKind;
+using esfleet::fuzz::RecordWriter;
+
+void save(const std::string& path, const std::string& bytes) {
+  std::ofstream out(path, std::ios::binary);
+  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  if (!out) throw std::runtime_error("cannot write " + path);
+  std::printf("%s: %zu bytes\n", path.c_str(), bytes.size());
+}
+
+void save(const std::string& path, const RecordWriter& w) {
+  save(path, std::string(w.bytes().begin(), w.bytes().end()));
+}
+
+std::string slurp(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+/// The P5 image `pgm` (header "P5\n<w> <h>\n255\n", as save_ros_map writes it) as P2 text.
+std::string to_p2(const std::string& pgm) {
+  std::istringstream in(pgm);
+  std::string magic;
+  int w = 0, h = 0, maxval = 0;
+  in >> magic >> w >> h >> maxval;
+  in.get();
+  std::string out = "P2\n# ascii copy\n" + std::to_string(w) + " " + std::to_string(h) + "\n255\n";
+  for (int i = 0; i < w * h; ++i) {
+    out += std::to_string(static_cast<unsigned char>(in.get()));
+    out += (i + 1) % w == 0 ? '\n' : ' ';
+  }
+  return out;
+}
+
+/// fuzz_map_loader seeds: the map at 0.5 m per cell (small images) in every image format.
+void map_loader_seeds(const std::vector<esfleet::LaserScan>& scans, const std::string& dir) {
+  esfleet::GridMapConfig config;
+  config.cell_size = 0.5;
+  esfleet::GridMap map(config);
+  for (const esfleet::LaserScan& s : scans) {
+    esfleet::update_map(map, esfleet::prepare_scan(s), *s.odometry);
+  }
+  const auto tmp = std::filesystem::temp_directory_path() / "esfleet-make-seeds";
+  std::filesystem::create_directories(tmp);
+  esfleet::save_ros_map(map, tmp.string(), "map");
+  esfleet::save_map_png(map, {}, (tmp / "map.png").string());
+  const std::string yaml = slurp(tmp / "map.yaml");
+  const std::string pgm = slurp(tmp / "map.pgm");
+  const std::string png = slurp(tmp / "map.png");
+  std::filesystem::remove_all(tmp);
+  const auto edit = [](std::string text, const std::string& from, const std::string& to) {
+    text.replace(text.find(from), from.size(), to);
+    return text;
+  };
+  const std::string nul(1, '\0');
+  const std::string png_yaml = edit(yaml, "map.pgm", "map.png");
+  save(dir + "/pgm-p5", yaml + nul + pgm);
+  save(dir + "/pgm-p2-scale", edit(yaml, "mode: trinary", "mode: scale") + nul + to_p2(pgm));
+  save(dir + "/png-rgb-raw", edit(png_yaml, "mode: trinary", "mode: raw") + nul + png);
+  save(dir + "/png-rgb-negate", edit(png_yaml, "negate: 0", "negate: 1") + nul + png);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc != 3) {
+    std::fprintf(stderr, "usage: make_seeds LOG CORPUS_DIR\n");
+    return 2;
+  }
+  const std::vector<esfleet::LaserScan> scans = esfleet::read_carmen_log(argv[1]);
+  map_loader_seeds(scans, std::string(argv[2]) + "/fuzz_map_loader");
+  const std::string dir = std::string(argv[2]) + "/fuzz_tile";
+  esfleet::GridMap map;
+  const esfleet::dds::MapIdentity id{"fuzz", 1};
+  // The first scan, a copy of its tiles (the bases of deltas), then the rest.
+  esfleet::update_map(map, esfleet::prepare_scan(scans.front()), *scans.front().odometry);
+  std::vector<esfleet::Tile> first;
+  for (const esfleet::TileKey k : map.tile_keys()) first.push_back(*map.find_tile(k));
+  for (std::size_t i = 1; i < scans.size(); ++i) {
+    esfleet::update_map(map, esfleet::prepare_scan(scans[i]), *scans[i].odometry);
+  }
+  // A tile the later scans changed.
+  const esfleet::Tile* changed = nullptr;
+  for (const esfleet::Tile& t : first) {
+    if (map.find_tile(t.key)->version > t.version) changed = &t;
+  }
+  if (changed == nullptr) throw std::runtime_error("no tile changed after the first scan");
+  const esfleet::Tile& base = *changed;
+  const esfleet::TileKey delta_key = base.key;
+  const auto meta =
+      esfleet::dds::meta_to_msg(map, id, true, static_cast<std::uint32_t>(scans.size()), "{}", 0);
+  const esfleet::TileEncoding encodings[] = {esfleet::TileEncoding::kMedZlib,
+                                             esfleet::TileEncoding::kVarintZlib,
+                                             esfleet::TileEncoding::kRaw};
+  for (const esfleet::TileEncoding enc : encodings) {
+    const std::string name = std::to_string(static_cast<int>(enc));
+    // The whole map as a follower receives it: summary, every tile, one delta (stale by then).
+    RecordWriter w;
+    w.put(std::uint8_t{0});
+    w.put(static_cast<std::uint8_t>(RecordKind::kMeta));
+    esfleet::fuzz::write_meta(w, meta);
+    // Raw tiles are 32 kB each: one is enough (fuzz/run.sh caps inputs at 70 kB).
+    std::vector<esfleet::TileKey> keys = map.tile_keys();
+    if (enc == esfleet::TileEncoding::kRaw) keys.resize(1);
+    for (const esfleet::TileKey k : keys) {
+      w.put(static_cast<std::uint8_t>(RecordKind::kTile));
+      esfleet::fuzz::write_tile_fields(w, esfleet::dds::tile_to_msg(map, k, id, enc, 0), nullptr);
+    }
+    save(dir + "/map-enc" + name, w);
+    // The base tile, then its delta to the final version.
+    RecordWriter d;
+    d.put(std::uint8_t{1});
+    esfleet::GridMap one;
+    one.set_tile(delta_key, base.version, base.hit, base.err);
+    d.put(static_cast<std::uint8_t>(RecordKind::kTile));
+    esfleet::fuzz::write_tile_fields(d, esfleet::dds::tile_to_msg(one, delta_key, id, enc, 0),
+                                     nullptr);
+    const auto delta = esfleet::dds::tile_delta_to_msg(map, delta_key, base.version, base.hit,
+                                                       base.err, id, enc, 0);
+    const std::uint64_t base_version = delta.base_version();
+    d.put(static_cast<std::uint8_t>(RecordKind::kDelta));
+    esfleet::fuzz::write_tile_fields(d, delta, &base_version);
+    save(dir + "/delta-enc" + name, d);
+    // The bare decoder on one tile.
+    RecordWriter c;
+    c.put(std::uint8_t{0});
+    c.put(static_cast<std::uint8_t>(RecordKind::kDecode));
+    const auto t = esfleet::dds::tile_to_msg(map, delta_key, id, enc, 0);
+    c.put(t.encoding());
+    c.put(t.cells());
+    c.put_payload(t.payload());
+    save(dir + "/decode-enc" + name, c);
+  }
+  return 0;
+}
