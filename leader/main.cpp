@@ -10,6 +10,7 @@
 #include <atomic>
 #include <chrono>
 #include <csignal>
+#include <filesystem>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -20,6 +21,7 @@
 #include "app/param_table.hpp"
 #include "app/slam_params.hpp"
 #include "app/slam_run.hpp"
+#include "checkpoint.hpp"
 #include "esfleet/core/slam.hpp"
 #include "esfleet/dds/node.hpp"
 #include "map_publisher.hpp"
@@ -33,6 +35,7 @@ extern "C" void on_signal(int) { g_stop.store(true); }
 struct OnlineOptions {
   int domain = 0;
   std::string profile;
+  std::string secure;  ///< DDS Security directory (docs/security.md); empty = off
   std::string map_id = "map";
   std::uint32_t epoch = 0;  ///< 0 = the start time in seconds, so a restart makes a new epoch
   std::string robot_id = "leader";
@@ -44,6 +47,18 @@ struct OnlineOptions {
   std::uint64_t full_every = 60;  ///< whole tile every this many publishes (deltas in between)
   double full_period = 60.0;      ///< and at least every this many seconds of scan time
 };
+
+/// Parameters whose values differ between a checkpoint and this run, as "name (a -> b)".
+std::string changed_params(const std::string& saved_json, const nlohmann::json& now) {
+  const nlohmann::json saved = nlohmann::json::parse(saved_json);
+  std::string out;
+  for (const auto& [name, value] : now.items()) {
+    const std::string was = saved.contains(name) ? saved[name].dump() : "(none)";
+    if (was != value.dump())
+      out += (out.empty() ? "" : ", ") + name + " (" + was + " -> " + value.dump() + ")";
+  }
+  return out;
+}
 
 /// Progress line every this many scans when the total is not known (--scan-topic).
 constexpr std::size_t kTopicProgressEvery = 100;
@@ -80,6 +95,7 @@ nlohmann::json dds_stats(const esfleet::leader::PublishStats& p, const OnlineOpt
       {"full_map_bytes", p.full_map_bytes},
       {"full_map_over_tiles", ratio},
       {"write_failures", p.write_failures},
+      {"joiner_refreshes", p.joiner_refreshes},
   };
 }
 
@@ -105,6 +121,8 @@ int main(int argc, char** argv) {
   bool offline = false;
   std::size_t max_scans = 0;
   bool paper = false;
+  std::string resume_dir;
+  std::size_t checkpoint_every = 50;
   OnlineOptions o;
   cli.add_option("--log", log_path, "CARMEN log (.log/.clf, plain or .gz)");
   cli.add_option("--scan-topic", scan_robot,
@@ -117,6 +135,13 @@ int main(int argc, char** argv) {
   cli.add_option("--out", out_dir, "output directory")->capture_default_str();
   cli.add_flag("--offline", offline, "run the log through the SLAM without DDS");
   cli.add_option("--max-scans", max_scans, "stop after N scans (0 = all)")->capture_default_str();
+  cli.add_option("--checkpoint-every", checkpoint_every,
+                 "write OUT/checkpoint every N scans and at exit, for --resume (0 = never); a "
+                 "leader killed loses at most the N - 1 scans since the last one")
+      ->capture_default_str();
+  cli.add_option("--resume", resume_dir,
+                 "continue the map checkpointed in DIR/checkpoint (same map id, epoch and "
+                 "parameters; --log continues after the last checkpointed scan)");
   cli.add_flag("--paper", paper,
                "start from the paper's exact configuration (previous-pose prediction, no "
                "extensions) before applying --config and the flags below");
@@ -124,6 +149,9 @@ int main(int argc, char** argv) {
   dds->add_option("--domain", o.domain, "DDS domain id (0-232)")->capture_default_str();
   dds->add_option("--profile", o.profile,
                   "Fast DDS XML profile (deploy/fastdds/*.xml); default: Fast DDS defaults");
+  dds->add_option("--secure", o.secure,
+                  "DDS Security: directory with this program's certificates and signed "
+                  "governance/permissions (deploy/security/make-fleet-certs.sh, docs/security.md)");
   dds->add_option("--map-id", o.map_id, "name of the shared map")->capture_default_str();
   dds->add_option("--epoch", o.epoch, "map epoch (0 = start time in seconds: a new map)")
       ->capture_default_str();
@@ -182,6 +210,39 @@ int main(int argc, char** argv) {
     spdlog::error("{}", e.what());
     return 2;
   }
+  nlohmann::json params_json;
+  for (const auto& [name, value] : params.values()) params_json[name] = value;
+
+  Slam slam(config);
+  std::optional<leader::Resumed> resumed;
+  if (!resume_dir.empty()) {
+    try {
+      resumed = leader::load_checkpoint(resume_dir, slam);
+      const std::string changed = changed_params(resumed->info.params_json, params_json);
+      if (!changed.empty()) {
+        throw std::invalid_argument("the SLAM parameters differ from the checkpoint's: " + changed);
+      }
+      const leader::CheckpointInfo& info = resumed->info;
+      if (cli.count("--map-id") > 0 && o.map_id != info.map_id) {
+        throw std::invalid_argument("--map-id " + o.map_id + " but the checkpoint's map is " +
+                                    info.map_id);
+      }
+      if (cli.count("--epoch") > 0 && o.epoch != info.epoch) {
+        throw std::invalid_argument("--epoch " + std::to_string(o.epoch) +
+                                    " but the checkpoint's epoch is " + std::to_string(info.epoch));
+      }
+      o.map_id = info.map_id;
+      o.epoch = info.epoch;
+    } catch (const std::exception& e) {
+      spdlog::error("--resume {}: {}", resume_dir, e.what());
+      return 2;
+    }
+    spdlog::info(
+        "resumed map '{}' epoch {} from {}/checkpoint: {} scans ({}), {} tiles ({} empty ones "
+        "the followers may hold), all republished at version {}",
+        o.map_id, o.epoch, resume_dir, resumed->info.scans, resumed->info.input,
+        slam.map().tile_count(), resumed->tiles_added_empty, resumed->new_version);
+  }
 
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
@@ -193,9 +254,23 @@ int main(int argc, char** argv) {
   scans::TopicScanSource* topic = nullptr;
   if (!log_path.empty()) {
     try {
-      source = std::make_unique<scans::LogScanSource>(
-          scans::read_log(log_path, reader_options, max_scans, config.use_odometry, g_stop),
-          o.rate);
+      std::vector<LaserScan> scans =
+          scans::read_log(log_path, reader_options, max_scans, config.use_odometry, g_stop);
+      if (resumed) {
+        const std::size_t skip = resumed->info.scans;
+        if (skip > scans.size()) {
+          throw std::invalid_argument("--resume: the checkpoint has " + std::to_string(skip) +
+                                      " scans but " + log_path + " only " +
+                                      std::to_string(scans.size()));
+        }
+        if (resumed->info.input != "log " + log_path) {
+          spdlog::warn("the checkpoint mapped {}; continuing with log {}", resumed->info.input,
+                       log_path);
+        }
+        scans.erase(scans.begin(), scans.begin() + static_cast<std::ptrdiff_t>(skip));
+        spdlog::info("continuing {} at scan {}", log_path, skip);
+      }
+      source = std::make_unique<scans::LogScanSource>(std::move(scans), o.rate);
     } catch (const std::exception& e) {
       spdlog::error("{}", e.what());
       return 2;
@@ -203,15 +278,14 @@ int main(int argc, char** argv) {
     spdlog::info("{}: {} scans", log_path, source->total());
   }
   for (const auto& [name, value] : params.values()) spdlog::info("  {} = {}", name, value);
-  nlohmann::json params_json;
-  for (const auto& [name, value] : params.values()) params_json[name] = value;
 
   if (!offline) {
     if (o.epoch == 0) {
       o.epoch = static_cast<std::uint32_t>(dds::realtime_ns() / 1'000'000'000);
     }
     try {
-      node = std::make_unique<dds::Node>(dds::NodeOptions{o.domain, o.profile, "esfleet-leader"});
+      node = std::make_unique<dds::Node>(
+          dds::NodeOptions{o.domain, o.profile, "esfleet-leader", o.secure});
       publisher = std::make_unique<leader::MapPublisher>(
           *node, dds::MapIdentity{o.map_id, o.epoch}, o.robot_id,
           o.encoding == "raw"      ? TileEncoding::kRaw
@@ -236,20 +310,83 @@ int main(int argc, char** argv) {
     }
   }
 
-  Slam slam(config);
+  // Checkpoints (OUT/checkpoint): the snapshot every --checkpoint-every scans and at exit, the
+  // publish journal before every publish that needs it.
+  std::optional<leader::Checkpointer> checkpointer;
+  nlohmann::json checkpoint_json;
+  std::vector<double> checkpoint_ms;
+  std::uint64_t checkpoint_bytes = 0;
+  bool checkpoint_failed_logged = false;
+  if (checkpoint_every > 0) {
+    namespace fs = std::filesystem;
+    const std::string dir = out_dir + "/checkpoint";
+    std::uint64_t generation = 1;
+    std::error_code ec;
+    if (resumed && fs::equivalent(fs::path(resume_dir) / "checkpoint", dir, ec)) {
+      generation = resumed->generation + 1;
+    } else if (fs::exists(dir + "/manifest.json")) {
+      // A fresh start (a new epoch) over an old checkpoint: keep the old one aside.
+      fs::remove_all(dir + ".old", ec);
+      fs::rename(dir, dir + ".old", ec);
+      spdlog::warn("moved the old checkpoint {} to {}.old (start with --resume {} to continue it)",
+                   dir, dir, out_dir);
+    }
+    try {
+      checkpointer.emplace(dir, generation);
+      if (resumed) checkpointer->adopt_journal(resumed->journal);
+    } catch (const std::exception& e) {
+      spdlog::error("checkpoint directory {}: {}", dir, e.what());
+      return 2;
+    }
+  }
+  const std::string input_name = log_path.empty() ? "scan-topic " + scan_robot : "log " + log_path;
+  auto save_checkpoint = [&](const char* why) {
+    if (!checkpointer) return;
+    const auto t0 = Clock::now();
+    try {
+      checkpoint_bytes = checkpointer->save(
+          slam, {o.map_id, o.epoch, slam.scans_processed(), input_name, params_json.dump()});
+    } catch (const std::exception& e) {
+      spdlog::error("checkpoint at scan {} failed: {}", slam.scans_processed(), e.what());
+      return;
+    }
+    checkpoint_ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+    if (checkpoint_ms.size() == 1 || checkpoint_ms.size() % 20 == 0 || why != nullptr) {
+      spdlog::info("checkpoint {} at scan {}{}: {:.0f} kB in {:.1f} ms", checkpoint_ms.size(),
+                   slam.scans_processed(), why != nullptr ? fmt::format(" ({})", why) : "",
+                   static_cast<double>(checkpoint_bytes) / 1e3, checkpoint_ms.back());
+    }
+  };
   const std::size_t every =
       source->total() > 0 ? std::max<std::size_t>(1, source->total() / 20) : kTopicProgressEvery;
   std::optional<double> first_stamp;
   double last_stamp = 0.0, last_publish = -1e300;
   const std::string params_dump = params_json.dump();
   auto publish = [&](bool complete, float fitness) {
+    if (checkpointer) {
+      try {
+        checkpointer->reserve(slam.map());
+      } catch (const std::exception& e) {
+        // Mapping and sharing go on; only a resumed leader could then fail to supersede tiles.
+        if (!checkpoint_failed_logged) spdlog::error("publish journal: {}", e.what());
+        checkpoint_failed_logged = true;
+      }
+    }
     publisher->publish(slam.map(), slam.trajectory().back(), fitness, complete,
                        static_cast<std::uint32_t>(slam.scans_processed()), params_dump);
   };
+  if (resumed && publisher) {
+    // Supersede what the dead leader published now, not at the next scan (which may be long).
+    publisher->republish_all(slam.map());
+    publish(false, 0.0f);
+  }
   const auto stats = scans::run_slam(
       slam, *source, max_scans, g_stop,
       [&](const LaserScan& scan, const SlamStep& step, std::size_t done) {
         if (!first_stamp) first_stamp = scan.stamp;
+        if (checkpoint_every > 0 && slam.scans_processed() % checkpoint_every == 0) {
+          save_checkpoint(nullptr);
+        }
         last_stamp = scan.stamp;
         if (publisher && scan.stamp - last_publish >= o.publish_period) {
           publish(false, step.fitness.fitness);
@@ -262,7 +399,18 @@ int main(int argc, char** argv) {
                        slam.map().tile_count());
         }
       });
-  if (stats.scans == 0) {
+  save_checkpoint(stats.interrupted ? "interrupted" : "end of input");
+  if (checkpointer) {
+    const app::Summary c = app::summarize(checkpoint_ms);
+    checkpoint_json = {{"dir", checkpointer->dir()},
+                       {"every", checkpoint_every},
+                       {"written", checkpoint_ms.size()},
+                       {"ms_median", c.median},
+                       {"ms_max", c.max},
+                       {"bytes_last", checkpoint_bytes},
+                       {"version_ceiling", checkpointer->journal().version_ceiling}};
+  }
+  if (stats.scans == 0 && !resumed) {
     spdlog::warn("no scan received: nothing to save");
     return stats.interrupted ? 130 : 1;
   }
@@ -286,6 +434,13 @@ int main(int argc, char** argv) {
     extra["log"] = log_path;
   }
   extra["paper_mode"] = paper;
+  if (checkpointer) extra["checkpoint"] = checkpoint_json;
+  if (resumed) {
+    extra["resumed"] = {{"from", resume_dir},
+                        {"scans", resumed->info.scans},
+                        {"tiles_added_empty", resumed->tiles_added_empty},
+                        {"version", resumed->new_version}};
+  }
   extra["parameters"] = params_json;
   if (publisher) {
     publish(!stats.interrupted, 0.0f);

@@ -11,7 +11,7 @@ MapPublisher::MapPublisher(dds::Node& node, dds::MapIdentity id, std::string rob
       tiles_(node),
       deltas_(node),
       meta_(node),
-      pose_(node) {}
+      pose_(node, robot_id_) {}  // in the robot's partition (docs/security.md)
 
 void MapPublisher::publish(GridMap& map, const TimedPose& pose, float fitness, bool complete,
                            std::uint32_t scans, const std::string& params_json) {
@@ -27,7 +27,14 @@ void MapPublisher::publish(GridMap& map, const TimedPose& pose, float fitness, b
                        stamp - sent.full_stamp >= policy_.full_period;
     send(map, k, sent, whole, stamp, now);
   }
-  if (complete) {
+  // A follower that joined since the last publish holds the whole copies (transient-local),
+  // which may be up to full_period old, and cannot apply deltas against newer versions: bring
+  // every whole copy to the newest version now, as at the end of the map.
+  const int readers = tiles_.matched_readers();
+  const bool joined = readers > tile_readers_;
+  tile_readers_ = readers;
+  if (joined) ++stats_.joiner_refreshes;
+  if (complete || joined) {
     // Late joiners read only whole tiles: make every whole copy the newest version.
     for (auto& [k, sent] : sent_) {
       if (sent.full_version < sent.version && map.find_tile(k) != nullptr) {

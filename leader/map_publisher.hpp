@@ -8,8 +8,9 @@
 // Whole when the tile is new, or when `full_every` - 1 deltas of the tile followed its last whole
 // copy, or that copy is `full_period` seconds of scan time old; otherwise as a delta. (Counted in
 // publishes of the tile, not in tile versions: a version is bumped per scan, several per publish.)
-// When the map is complete, every tile whose whole copy is not its newest version goes out
-// whole, so late joiners (which never see deltas) end with the final map.
+// When the map is complete, and whenever a new tile reader matched since the last publish,
+// every tile whose whole copy is not its newest version goes out whole, so late joiners (which
+// never see the deltas before they joined) catch up with the current map at once.
 
 #include <cstdint>
 #include <map>
@@ -32,6 +33,8 @@ struct PublishStats {
   std::uint64_t meta_bytes = 0;      ///< summary CDR bytes
   std::uint64_t pose_bytes = 0;      ///< pose CDR bytes
   std::uint64_t write_failures = 0;  ///< samples DDS refused
+  /// Publishes that brought every whole tile up to date because a tile reader had joined.
+  std::uint64_t joiner_refreshes = 0;
   /// What a nav_msgs/OccupancyGrid of the known bounds at every publish would have cost:
   /// one byte per cell plus about 100 bytes of header and metadata.
   std::uint64_t full_map_bytes = 0;
@@ -86,6 +89,7 @@ class MapPublisher {
   TileEncoding encoding_;
   DeltaPolicy policy_;
   std::map<TileKey, Sent> sent_;
+  int tile_readers_ = 0;  ///< tile readers matched at the last publish
   dds::TileWriter tiles_;
   dds::TileDeltaWriter deltas_;
   dds::MetaWriter meta_;

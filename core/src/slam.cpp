@@ -186,4 +186,59 @@ void Slam::apply_graph() {
   last_inserted_ = graph_.node(keys_.size() - 1);
 }
 
+SlamState Slam::state() const {
+  SlamState s;
+  s.rng = rng_.state();
+  s.trajectory = trajectory_;
+  s.last_odometry = last_odometry_;
+  s.last_inserted = last_inserted_;
+  s.path_length = path_length_;
+  s.keys = keys_;
+  s.graph_nodes = graph_.nodes();
+  s.graph_edges = graph_.edges();
+  s.anchors = anchors_;
+  s.loop_closures = loop_closures_;
+  s.loop_rejected = loop_rejected_;
+  s.last_loop = last_loop_;
+  return s;
+}
+
+void Slam::restore(SlamState s) {
+  auto check = [](bool ok, const std::string& what) {
+    if (!ok) throw std::invalid_argument("slam state: " + what);
+  };
+  check(s.graph_nodes.size() == s.keys.size(),
+        "graph_nodes (" + std::to_string(s.graph_nodes.size()) + ") != keys (" +
+            std::to_string(s.keys.size()) + ")");
+  for (std::size_t i = 0; i < s.graph_edges.size(); ++i) {
+    const PoseGraphEdge& e = s.graph_edges[i];
+    check(e.from < s.keys.size() && e.to < s.keys.size() && e.from != e.to,
+          "graph_edges[" + std::to_string(i) + "] node indices invalid");
+  }
+  check(s.anchors.empty() || s.anchors.size() == s.trajectory.size(),
+        "anchors (" + std::to_string(s.anchors.size()) + ") != trajectory (" +
+            std::to_string(s.trajectory.size()) + ")");
+  for (std::size_t i = 0; i < s.anchors.size(); ++i) {
+    check(s.anchors[i].first < s.keys.size(),
+          "anchors[" + std::to_string(i) + "] key index out of range");
+  }
+  check(!config_.loop.enabled || s.trajectory.empty() || s.anchors.size() == s.trajectory.size(),
+        "loop closure is on but the state has no anchors (saved with loop closure off?)");
+  check(s.last_loop.has_value() == false || s.last_loop->key < s.keys.size(),
+        "last_loop.key out of range");
+  rng_.set_state(s.rng);
+  trajectory_ = std::move(s.trajectory);
+  last_odometry_ = s.last_odometry;
+  last_inserted_ = s.last_inserted;
+  path_length_ = s.path_length;
+  keys_ = std::move(s.keys);
+  graph_ = PoseGraph{};
+  graph_.set_nodes(std::move(s.graph_nodes));
+  for (const PoseGraphEdge& e : s.graph_edges) graph_.add_edge(e);
+  anchors_ = std::move(s.anchors);
+  loop_closures_ = s.loop_closures;
+  loop_rejected_ = s.loop_rejected;
+  last_loop_ = s.last_loop;
+}
+
 }  // namespace esfleet

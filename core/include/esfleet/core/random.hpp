@@ -3,6 +3,7 @@
 // splitmix64, and Box-Muller normals. std::normal_distribution is implementation-defined,
 // so it is not used: the same seed must give the same trajectory on every build.
 
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <numbers>
@@ -17,6 +18,19 @@ class Rng {
     std::uint64_t z = seed;
     for (auto& word : s_) word = splitmix64(z);
     has_spare_ = false;
+  }
+
+  /// The whole generator state (for checkpoints): set_state(state()) continues the sequence.
+  struct State {
+    std::array<std::uint64_t, 4> s{};
+    double spare = 0.0;
+    bool has_spare = false;
+  };
+  State state() const { return {{s_[0], s_[1], s_[2], s_[3]}, spare_, has_spare_}; }
+  void set_state(const State& st) {
+    for (std::size_t i = 0; i < 4; ++i) s_[i] = st.s[i];
+    spare_ = st.spare;
+    has_spare_ = st.has_spare;
   }
 
   std::uint64_t next_u64() {

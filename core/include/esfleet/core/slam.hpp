@@ -112,6 +112,25 @@ struct LoopEvent {
   double ambiguity = 0.0;
 };
 
+/// Everything besides the map that Slam::process depends on. With the map's counters it lets a
+/// new Slam (same config) continue exactly where another one was: the leader's checkpoints
+/// (slam_snapshot.hpp).
+struct SlamState {
+  Rng::State rng;
+  std::vector<TimedPose> trajectory;
+  std::optional<Pose2> last_odometry;
+  std::optional<Pose2> last_inserted;
+  double path_length = 0.0;
+  std::vector<KeyScan> keys;
+  std::vector<Pose2> graph_nodes;
+  std::vector<PoseGraphEdge> graph_edges;
+  /// Per trajectory entry: its key scan and its pose relative to it (loop closure on).
+  std::vector<std::pair<std::size_t, Pose2>> anchors;
+  std::size_t loop_closures = 0;
+  std::size_t loop_rejected = 0;
+  std::optional<LoopEvent> last_loop;
+};
+
 class Slam {
  public:
   explicit Slam(SlamConfig config = {});
@@ -130,6 +149,13 @@ class Slam {
   std::size_t loop_closures_rejected() const { return loop_rejected_; }
   std::size_t key_scans() const { return keys_.size(); }
   const std::optional<LoopEvent>& last_loop() const { return last_loop_; }
+
+  /// A copy of the state besides the map (see SlamState).
+  SlamState state() const;
+  /// Replaces the state besides the map (the map is restored through map()). Throws
+  /// std::invalid_argument naming the field when the parts do not fit together (graph nodes
+  /// vs key scans, anchors vs trajectory, edge or anchor indices out of range).
+  void restore(SlamState state);
 
  private:
   /// Adds the scan just inserted as a key scan (graph node + edge to the previous one) and

@@ -1,0 +1,299 @@
+#include "esfleet/core/slam_snapshot.hpp"
+
+#include <bit>
+#include <cstring>
+#include <type_traits>
+#include <vector>
+
+#include "esfleet/core/tile_codec.hpp"
+
+namespace esfleet {
+
+static_assert(std::endian::native == std::endian::little, "snapshots assume little-endian");
+
+namespace {
+
+constexpr std::string_view kMapMagic = "ESFMAP01";
+constexpr std::string_view kSlamMagic = "ESFSLAM1";
+
+std::uint64_t fnv1a(std::string_view bytes) {
+  std::uint64_t h = 0xcbf29ce484222325ull;
+  for (const char c : bytes) {
+    h ^= static_cast<unsigned char>(c);
+    h *= 0x100000001b3ull;
+  }
+  return h;
+}
+
+class Out {
+ public:
+  explicit Out(std::string_view magic) : bytes_(magic) {}
+  template <class T>
+  void put(T v) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    char b[sizeof(T)];
+    std::memcpy(b, &v, sizeof(T));
+    bytes_.append(b, sizeof(T));
+  }
+  void put(const Pose2& p) {
+    put(p.x);
+    put(p.y);
+    put(p.theta);
+  }
+  void put(const std::optional<Pose2>& p) {
+    put<std::uint8_t>(p ? 1 : 0);
+    if (p) put(*p);
+  }
+  void put(const std::vector<float>& v) {
+    put<std::uint64_t>(v.size());
+    bytes_.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(float));
+  }
+  void put_bytes(const std::vector<std::uint8_t>& v) {
+    put<std::uint64_t>(v.size());
+    bytes_.append(reinterpret_cast<const char*>(v.data()), v.size());
+  }
+  std::string finish() {
+    put(fnv1a(bytes_));
+    return std::move(bytes_);
+  }
+
+ private:
+  std::string bytes_;
+};
+
+class In {
+ public:
+  In(std::string_view bytes, std::string_view magic, const char* what) : what_(what) {
+    if (bytes.size() < magic.size() + 8) fail("file", "shorter than magic and checksum");
+    if (bytes.substr(0, magic.size()) != magic)
+      fail("magic", "not a " + std::string(what) + " snapshot");
+    std::uint64_t stored = 0;
+    std::memcpy(&stored, bytes.data() + bytes.size() - 8, 8);
+    if (stored != fnv1a(bytes.substr(0, bytes.size() - 8))) {
+      fail("checksum", "does not match the contents (corrupt or truncated)");
+    }
+    rest_ = bytes.substr(magic.size(), bytes.size() - magic.size() - 8);
+  }
+  [[noreturn]] void fail(const std::string& field, const std::string& why) const {
+    throw SnapshotError(std::string(what_) + " snapshot: " + field + ": " + why);
+  }
+  template <class T>
+  T get(const std::string& field) {
+    T v;
+    take(&v, sizeof(T), field);
+    return v;
+  }
+  Pose2 pose(const std::string& field) {
+    Pose2 p;
+    p.x = get<double>(field + ".x");
+    p.y = get<double>(field + ".y");
+    p.theta = get<double>(field + ".theta");
+    return p;
+  }
+  std::optional<Pose2> opt_pose(const std::string& field) {
+    const auto has = get<std::uint8_t>(field);
+    if (has > 1) fail(field, "bad presence flag");
+    if (has == 0) return std::nullopt;
+    return pose(field);
+  }
+  /// A count of items of at least `item_bytes` each: checked against the bytes left.
+  std::size_t count(const std::string& field, std::size_t item_bytes) {
+    const auto n = get<std::uint64_t>(field);
+    if (item_bytes > 0 && n > rest_.size() / item_bytes) fail(field, "count larger than the file");
+    return static_cast<std::size_t>(n);
+  }
+  std::vector<float> floats(const std::string& field) {
+    std::vector<float> v(count(field, sizeof(float)));
+    take(v.data(), v.size() * sizeof(float), field);
+    return v;
+  }
+  std::vector<std::uint8_t> bytes(const std::string& field) {
+    std::vector<std::uint8_t> v(count(field, 1));
+    take(v.data(), v.size(), field);
+    return v;
+  }
+  void done() const {
+    if (!rest_.empty()) fail("end", std::to_string(rest_.size()) + " trailing bytes");
+  }
+
+ private:
+  void take(void* dst, std::size_t n, const std::string& field) {
+    if (rest_.size() < n) fail(field, "truncated");
+    if (n > 0) std::memcpy(dst, rest_.data(), n);
+    rest_.remove_prefix(n);
+  }
+  const char* what_;
+  std::string_view rest_;
+};
+
+}  // namespace
+
+std::string encode_map_snapshot(const GridMap& map) {
+  Out out(kMapMagic);
+  out.put(map.cell_size());
+  out.put<std::uint32_t>(static_cast<std::uint32_t>(map.tile_edge()));
+  const std::vector<TileKey> keys = map.tile_keys();
+  out.put<std::uint64_t>(keys.size());
+  for (const TileKey k : keys) {
+    const Tile& t = *map.find_tile(k);
+    out.put(k.tx);
+    out.put(k.ty);
+    out.put(t.version);
+    const EncodedTile e = encode_tile(t.hit, t.err, TileEncoding::kMedZlib);
+    out.put(static_cast<std::uint8_t>(e.encoding));
+    out.put_bytes(e.payload);
+  }
+  return out.finish();
+}
+
+void decode_map_snapshot(std::string_view bytes, GridMap& map) {
+  In in(bytes, kMapMagic, "map");
+  const auto cell_size = in.get<double>("cell_size");
+  if (cell_size != map.cell_size()) {
+    in.fail("cell_size", std::to_string(cell_size) + " but the map has " +
+                             std::to_string(map.cell_size()) + " (--cell-size differs)");
+  }
+  const auto edge = in.get<std::uint32_t>("tile_edge");
+  if (edge != static_cast<std::uint32_t>(map.tile_edge())) {
+    in.fail("tile_edge",
+            std::to_string(edge) + " but the map has " + std::to_string(map.tile_edge()));
+  }
+  const std::size_t n = in.count("tiles", 8 + 8 + 1 + 8);
+  std::vector<std::uint32_t> hit, err;
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::string f = "tiles[" + std::to_string(i) + "]";
+    TileKey k;
+    k.tx = in.get<std::int32_t>(f + ".tx");
+    k.ty = in.get<std::int32_t>(f + ".ty");
+    const auto version = in.get<std::uint64_t>(f + ".version");
+    const auto enc = static_cast<TileEncoding>(in.get<std::uint8_t>(f + ".encoding"));
+    const std::vector<std::uint8_t> payload = in.bytes(f + ".payload");
+    try {
+      decode_tile(enc, payload, map.cells_per_tile(), hit, err);
+      map.set_tile(k, version, hit, err);
+    } catch (const std::exception& e) {
+      in.fail(f, e.what());
+    }
+  }
+  in.done();
+}
+
+std::string encode_slam_state(const SlamState& s) {
+  Out out(kSlamMagic);
+  for (const std::uint64_t w : s.rng.s) out.put(w);
+  out.put(s.rng.spare);
+  out.put<std::uint8_t>(s.rng.has_spare ? 1 : 0);
+  out.put<std::uint64_t>(s.trajectory.size());
+  for (const TimedPose& p : s.trajectory) {
+    out.put(p.stamp);
+    out.put(p.pose);
+  }
+  out.put(s.last_odometry);
+  out.put(s.last_inserted);
+  out.put(s.path_length);
+  out.put<std::uint64_t>(s.keys.size());
+  for (const KeyScan& k : s.keys) {
+    out.put(k.stamp);
+    out.put(k.mapped_pose);
+    out.put(k.path_length);
+    out.put(k.points.x);
+    out.put(k.points.y);
+    out.put(k.points.range);
+    out.put(k.points.no_return_angles);
+  }
+  out.put<std::uint64_t>(s.graph_nodes.size());
+  for (const Pose2& p : s.graph_nodes) out.put(p);
+  out.put<std::uint64_t>(s.graph_edges.size());
+  for (const PoseGraphEdge& e : s.graph_edges) {
+    out.put<std::uint64_t>(e.from);
+    out.put<std::uint64_t>(e.to);
+    out.put(e.measurement);
+    out.put(e.info_xy);
+    out.put(e.info_theta);
+    out.put(e.huber);
+  }
+  out.put<std::uint64_t>(s.anchors.size());
+  for (const auto& [k, rel] : s.anchors) {
+    out.put<std::uint64_t>(k);
+    out.put(rel);
+  }
+  out.put<std::uint64_t>(s.loop_closures);
+  out.put<std::uint64_t>(s.loop_rejected);
+  out.put<std::uint8_t>(s.last_loop ? 1 : 0);
+  if (s.last_loop) {
+    out.put<std::uint64_t>(s.last_loop->key);
+    out.put<std::uint64_t>(s.last_loop->anchor);
+    out.put(s.last_loop->correction);
+    out.put(s.last_loop->agreement);
+    out.put(s.last_loop->ambiguity);
+  }
+  return out.finish();
+}
+
+SlamState decode_slam_state(std::string_view bytes) {
+  In in(bytes, kSlamMagic, "slam");
+  SlamState s;
+  for (std::size_t i = 0; i < 4; ++i) s.rng.s[i] = in.get<std::uint64_t>("rng.s");
+  s.rng.spare = in.get<double>("rng.spare");
+  s.rng.has_spare = in.get<std::uint8_t>("rng.has_spare") != 0;
+  s.trajectory.resize(in.count("trajectory", 32));
+  for (std::size_t i = 0; i < s.trajectory.size(); ++i) {
+    const std::string f = "trajectory[" + std::to_string(i) + "]";
+    s.trajectory[i].stamp = in.get<double>(f + ".stamp");
+    s.trajectory[i].pose = in.pose(f);
+  }
+  s.last_odometry = in.opt_pose("last_odometry");
+  s.last_inserted = in.opt_pose("last_inserted");
+  s.path_length = in.get<double>("path_length");
+  s.keys.resize(in.count("keys", 40 + 32));
+  for (std::size_t i = 0; i < s.keys.size(); ++i) {
+    const std::string f = "keys[" + std::to_string(i) + "]";
+    KeyScan& k = s.keys[i];
+    k.stamp = in.get<double>(f + ".stamp");
+    k.mapped_pose = in.pose(f + ".mapped_pose");
+    k.path_length = in.get<double>(f + ".path_length");
+    k.points.x = in.floats(f + ".points.x");
+    k.points.y = in.floats(f + ".points.y");
+    k.points.range = in.floats(f + ".points.range");
+    k.points.no_return_angles = in.floats(f + ".points.no_return_angles");
+    if (k.points.y.size() != k.points.x.size() || k.points.range.size() != k.points.x.size()) {
+      in.fail(f + ".points", "x, y and range differ in length");
+    }
+  }
+  s.graph_nodes.resize(in.count("graph_nodes", 24));
+  for (std::size_t i = 0; i < s.graph_nodes.size(); ++i) {
+    s.graph_nodes[i] = in.pose("graph_nodes[" + std::to_string(i) + "]");
+  }
+  s.graph_edges.resize(in.count("graph_edges", 64));
+  for (std::size_t i = 0; i < s.graph_edges.size(); ++i) {
+    const std::string f = "graph_edges[" + std::to_string(i) + "]";
+    PoseGraphEdge& e = s.graph_edges[i];
+    e.from = static_cast<std::size_t>(in.get<std::uint64_t>(f + ".from"));
+    e.to = static_cast<std::size_t>(in.get<std::uint64_t>(f + ".to"));
+    e.measurement = in.pose(f + ".measurement");
+    e.info_xy = in.get<double>(f + ".info_xy");
+    e.info_theta = in.get<double>(f + ".info_theta");
+    e.huber = in.get<double>(f + ".huber");
+  }
+  s.anchors.resize(in.count("anchors", 32));
+  for (std::size_t i = 0; i < s.anchors.size(); ++i) {
+    const std::string f = "anchors[" + std::to_string(i) + "]";
+    s.anchors[i].first = static_cast<std::size_t>(in.get<std::uint64_t>(f + ".key"));
+    s.anchors[i].second = in.pose(f + ".relative");
+  }
+  s.loop_closures = static_cast<std::size_t>(in.get<std::uint64_t>("loop_closures"));
+  s.loop_rejected = static_cast<std::size_t>(in.get<std::uint64_t>("loop_rejected"));
+  if (in.get<std::uint8_t>("last_loop") != 0) {
+    LoopEvent e;
+    e.key = static_cast<std::size_t>(in.get<std::uint64_t>("last_loop.key"));
+    e.anchor = static_cast<std::size_t>(in.get<std::uint64_t>("last_loop.anchor"));
+    e.correction = in.pose("last_loop.correction");
+    e.agreement = in.get<float>("last_loop.agreement");
+    e.ambiguity = in.get<double>("last_loop.ambiguity");
+    s.last_loop = e;
+  }
+  in.done();
+  return s;
+}
+
+}  // namespace esfleet

@@ -1,0 +1,208 @@
+#include "checkpoint.hpp"
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <stdexcept>
+#include <vector>
+
+#include "esfleet/core/map_io.hpp"
+#include "esfleet/core/slam_snapshot.hpp"
+
+namespace esfleet::leader {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr int kFormat = 1;
+
+std::string read_file(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error(path.string() + ": cannot open (missing?)");
+  std::ostringstream s;
+  s << in.rdbuf();
+  if (!in.good() && !in.eof()) throw std::runtime_error(path.string() + ": read error");
+  return s.str();
+}
+
+nlohmann::json read_json(const fs::path& path) {
+  try {
+    return nlohmann::json::parse(read_file(path));
+  } catch (const nlohmann::json::exception& e) {
+    throw std::runtime_error(path.string() + ": " + e.what());
+  }
+}
+
+template <class T>
+T field(const nlohmann::json& j, const char* name, const fs::path& path) {
+  if (!j.is_object() || !j.contains(name)) {
+    throw std::runtime_error(path.string() + ": field '" + name + "' missing");
+  }
+  try {
+    return j.at(name).get<T>();
+  } catch (const nlohmann::json::exception&) {
+    throw std::runtime_error(path.string() + ": field '" + name + "' has the wrong type");
+  }
+}
+
+}  // namespace
+
+Checkpointer::Checkpointer(std::string dir, std::uint64_t first_generation)
+    : dir_(std::move(dir)), generation_(first_generation) {
+  fs::create_directories(dir_);
+}
+
+void Checkpointer::reserve(const GridMap& map) {
+  std::uint64_t max_version = 0;
+  bool new_key = false;
+  const std::vector<TileKey> keys = map.tile_keys();
+  for (const TileKey k : keys) {
+    max_version = std::max(max_version, map.find_tile(k)->version);
+    if (!new_key && !journal_.keys.contains(k)) new_key = true;
+  }
+  if (max_version <= journal_.version_ceiling && !new_key) return;
+  journal_.version_ceiling = std::max(journal_.version_ceiling, max_version + kVersionHeadroom);
+  journal_.keys.insert(keys.begin(), keys.end());
+  write_journal();
+}
+
+void Checkpointer::write_journal() {
+  nlohmann::json tiles = nlohmann::json::array();
+  for (const TileKey k : journal_.keys) tiles.push_back({k.tx, k.ty});
+  const nlohmann::json j = {
+      {"format", kFormat}, {"version_ceiling", journal_.version_ceiling}, {"tiles", tiles}};
+  write_file_atomically(dir_ + "/journal.json", j.dump() + "\n");
+}
+
+std::uint64_t Checkpointer::save(const Slam& slam, const CheckpointInfo& info) {
+  const std::uint64_t g = generation_;
+  const std::string map_name = "map." + std::to_string(g) + ".bin";
+  const std::string slam_name = "slam." + std::to_string(g) + ".bin";
+  const std::string map_bytes = encode_map_snapshot(slam.map());
+  const std::string slam_bytes = encode_slam_state(slam.state());
+  write_file_atomically(dir_ + "/" + map_name, map_bytes);
+  write_file_atomically(dir_ + "/" + slam_name, slam_bytes);
+  reserve(slam.map());  // the journal covers every version in the snapshot
+  const nlohmann::json manifest = {
+      {"format", kFormat},
+      {"generation", g},
+      {"map_id", info.map_id},
+      {"epoch", info.epoch},
+      {"scans", info.scans},
+      {"input", info.input},
+      {"parameters", nlohmann::json::parse(info.params_json.empty() ? "{}" : info.params_json)},
+      {"map_file", map_name},
+      {"map_bytes", map_bytes.size()},
+      {"slam_file", slam_name},
+      {"slam_bytes", slam_bytes.size()},
+      {"tiles", slam.map().tile_count()},
+      {"written_unix_s",
+       std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count()},
+  };
+  write_file_atomically(dir_ + "/manifest.json", manifest.dump(2) + "\n");
+  ++generation_;
+  // Older generations are unreachable now: remove them (best effort).
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(dir_, ec)) {
+    const std::string name = e.path().filename().string();
+    if ((name.starts_with("map.") || name.starts_with("slam.")) && name.ends_with(".bin") &&
+        name != map_name && name != slam_name) {
+      fs::remove(e.path(), ec);
+    }
+  }
+  return map_bytes.size() + slam_bytes.size();
+}
+
+Resumed load_checkpoint(const std::string& dir, Slam& slam) {
+  const fs::path base = fs::path(dir) / "checkpoint";
+  const fs::path manifest_path = base / "manifest.json";
+  if (!fs::exists(manifest_path)) {
+    throw std::runtime_error(manifest_path.string() + ": missing (no checkpoint in " + dir + ")");
+  }
+  const nlohmann::json m = read_json(manifest_path);
+  if (field<int>(m, "format", manifest_path) != kFormat) {
+    throw std::runtime_error(manifest_path.string() + ": field 'format' is not " +
+                             std::to_string(kFormat));
+  }
+  Resumed r;
+  r.generation = field<std::uint64_t>(m, "generation", manifest_path);
+  r.info.map_id = field<std::string>(m, "map_id", manifest_path);
+  r.info.epoch = field<std::uint32_t>(m, "epoch", manifest_path);
+  r.info.scans = field<std::uint64_t>(m, "scans", manifest_path);
+  r.info.input = field<std::string>(m, "input", manifest_path);
+  r.info.params_json = field<nlohmann::json>(m, "parameters", manifest_path).dump();
+
+  auto blob = [&](const char* name_field, const char* size_field) {
+    const fs::path p = base / field<std::string>(m, name_field, manifest_path);
+    const std::string bytes = read_file(p);
+    const auto expected = field<std::uint64_t>(m, size_field, manifest_path);
+    if (bytes.size() != expected) {
+      throw std::runtime_error(p.string() + ": " + std::to_string(bytes.size()) +
+                               " bytes, the manifest says " + std::to_string(expected));
+    }
+    return std::pair{p, bytes};
+  };
+  const auto [map_path, map_bytes] = blob("map_file", "map_bytes");
+  const auto [slam_path, slam_bytes] = blob("slam_file", "slam_bytes");
+  if (slam.map().tile_count() != 0 || slam.scans_processed() != 0) {
+    throw std::logic_error("load_checkpoint needs a fresh Slam");
+  }
+  try {
+    decode_map_snapshot(map_bytes, slam.map());
+  } catch (const std::exception& e) {
+    throw std::runtime_error(map_path.string() + ": " + e.what());
+  }
+  try {
+    slam.restore(decode_slam_state(slam_bytes));
+  } catch (const std::exception& e) {
+    throw std::runtime_error(slam_path.string() + ": " + e.what());
+  }
+  if (slam.scans_processed() != r.info.scans) {
+    throw std::runtime_error(manifest_path.string() + ": field 'scans' is " +
+                             std::to_string(r.info.scans) + " but " + slam_path.string() +
+                             " holds " + std::to_string(slam.scans_processed()) + " poses");
+  }
+
+  const fs::path journal_path = base / "journal.json";
+  const nlohmann::json j = read_json(journal_path);
+  r.journal.version_ceiling = field<std::uint64_t>(j, "version_ceiling", journal_path);
+  for (const auto& t : field<nlohmann::json>(j, "tiles", journal_path)) {
+    if (!t.is_array() || t.size() != 2 || !t[0].is_number_integer() || !t[1].is_number_integer()) {
+      throw std::runtime_error(journal_path.string() + ": field 'tiles' has a bad entry " +
+                               t.dump());
+    }
+    r.journal.keys.insert(TileKey{t[0].get<std::int32_t>(), t[1].get<std::int32_t>()});
+  }
+
+  // Supersede everything published before: every tile (and every tile followers may hold that
+  // the checkpoint lacks, empty) at a version above anything the dead leader could have sent.
+  GridMap& map = slam.map();
+  r.new_version = r.journal.version_ceiling + 1;
+  for (const TileKey k : map.tile_keys()) {
+    if (map.find_tile(k)->version > r.journal.version_ceiling) {
+      throw std::runtime_error(journal_path.string() + ": version_ceiling " +
+                               std::to_string(r.journal.version_ceiling) +
+                               " is below a checkpointed tile version");
+    }
+  }
+  const std::vector<std::uint32_t> zeros(map.cells_per_tile(), 0);
+  for (const TileKey k : r.journal.keys) {
+    if (map.find_tile(k) == nullptr) {
+      map.set_tile(k, r.new_version, zeros, zeros);
+      ++r.tiles_added_empty;
+    }
+  }
+  for (const TileKey k : map.tile_keys()) {
+    const Tile& t = *map.find_tile(k);
+    const std::vector<std::uint32_t> hit = t.hit, err = t.err;
+    map.set_tile(k, r.new_version, hit, err);
+  }
+  r.journal.version_ceiling = r.new_version + kVersionHeadroom;
+  for (const TileKey k : map.tile_keys()) r.journal.keys.insert(k);
+  return r;
+}
+
+}  // namespace esfleet::leader

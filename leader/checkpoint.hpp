@@ -1,0 +1,93 @@
+#pragma once
+// The leader's checkpoints: what a leader killed at any moment needs to continue the same map
+// (`esfleet-leader --resume DIR`), and the publish journal that lets the resumed leader's tiles
+// supersede whatever the dead one published after its last checkpoint (docs/faults.md).
+//
+// DIR/checkpoint/ holds
+//   map.<g>.bin, slam.<g>.bin  generation g of the snapshot (core/slam_snapshot.hpp): every
+//                              tile's counters and version; pose history, motion state, key
+//                              scans, pose graph, random generator
+//   manifest.json              written last (atomically): names generation g and its files with
+//                              sizes, map id, epoch, scans processed, the input, the parameters.
+//                              A checkpoint exists once its manifest does; older generations
+//                              are deleted after the manifest is replaced.
+//   journal.json               the publish journal: a version ceiling no published tile version
+//                              exceeds and every tile key ever published. Rewritten (atomically)
+//                              BEFORE a publish that would break it, so it always covers what
+//                              followers may hold, however old the last checkpoint is.
+// On resume every tile takes version ceiling + 1 and tiles the journal names but the checkpoint
+// lacks are created empty, so every tile the followers hold is replaced by a newer version.
+
+#include <cstdint>
+#include <set>
+#include <string>
+
+#include "esfleet/core/grid_map.hpp"
+#include "esfleet/core/slam.hpp"
+
+namespace esfleet::leader {
+
+/// What a checkpoint records besides the snapshot.
+struct CheckpointInfo {
+  std::string map_id;
+  std::uint32_t epoch = 0;
+  std::uint64_t scans = 0;  ///< scans processed: with --log, the index of the next scan
+  std::string input;        ///< "log PATH" or "scan-topic ROBOT_ID"
+  std::string params_json;  ///< the SLAM parameters (a resumed leader must use the same)
+};
+
+/// Tiles followers may hold: no version above the ceiling, no key outside the set.
+struct PublishJournal {
+  std::uint64_t version_ceiling = 0;
+  std::set<TileKey> keys;
+};
+
+/// Versions reserved at a time: the journal is rewritten when a tile version passes the ceiling.
+inline constexpr std::uint64_t kVersionHeadroom = 1000;
+
+class Checkpointer {
+ public:
+  /// Checkpoints go to `dir` (DIR/checkpoint, created). `first_generation` continues the
+  /// numbering of a resumed checkpoint in the same directory.
+  explicit Checkpointer(std::string dir, std::uint64_t first_generation = 1);
+
+  /// Before publishing `map`: if a tile's version is above the ceiling or its key is not in the
+  /// journal, raises the ceiling (max version + kVersionHeadroom), adds every key and rewrites
+  /// journal.json. Throws std::runtime_error naming the file on I/O failure.
+  void reserve(const GridMap& map);
+  /// Writes generation g+1 of the checkpoint (snapshot files, journal, manifest last) and
+  /// deletes older generations; returns the bytes written. Throws std::runtime_error.
+  std::uint64_t save(const Slam& slam, const CheckpointInfo& info);
+
+  /// Takes over a resumed leader's journal and writes it at once (before anything is published).
+  void adopt_journal(PublishJournal journal) {
+    journal_ = std::move(journal);
+    write_journal();
+  }
+  const PublishJournal& journal() const { return journal_; }
+  const std::string& dir() const { return dir_; }
+
+ private:
+  void write_journal();
+
+  std::string dir_;
+  std::uint64_t generation_;  ///< of the next save()
+  PublishJournal journal_;
+};
+
+/// A loaded checkpoint.
+struct Resumed {
+  CheckpointInfo info;
+  PublishJournal journal;
+  std::uint64_t generation = 0;
+  std::uint64_t tiles_added_empty = 0;  ///< journal tiles the checkpoint did not have
+  std::uint64_t new_version = 0;        ///< every tile's version after resume
+};
+
+/// Loads DIR/checkpoint into `slam` (fresh, built with the same config: its map must be empty),
+/// then supersedes what was published: every tile gets version journal ceiling + 1, journal
+/// tiles the snapshot lacks are created empty, the ceiling is raised past the new versions.
+/// Throws std::runtime_error naming the file and field on a missing or corrupt checkpoint.
+Resumed load_checkpoint(const std::string& dir, Slam& slam);
+
+}  // namespace esfleet::leader

@@ -1,0 +1,117 @@
+// Snapshots of a running SLAM (core/slam_snapshot.hpp): a Slam restored from a snapshot taken
+// mid-log continues exactly as the one that was never stopped, and damaged snapshots are
+// refused with a message naming the field.
+#include "esfleet/core/slam_snapshot.hpp"
+
+#include <gtest/gtest.h>
+
+#include <string>
+#include <vector>
+
+#include "esfleet/core/carmen_reader.hpp"
+#include "esfleet/core/tile_codec.hpp"
+
+namespace esfleet {
+namespace {
+
+std::vector<LaserScan> csail_scans(std::size_t n) {
+  std::vector<LaserScan> scans =
+      read_carmen_log(std::string(ESFLEET_DATA_DIR) + "/mit-csail/mit-csail.clf.gz", {}, n);
+  scans.resize(std::min(n, scans.size()));
+  return scans;
+}
+
+SlamConfig test_config() {
+  SlamConfig c;
+  c.use_odometry = true;
+  c.seed = 7;
+  return c;
+}
+
+TEST(SlamSnapshot, RestoredSlamContinuesBitIdentically) {
+  const std::vector<LaserScan> scans = csail_scans(300);
+  ASSERT_EQ(scans.size(), 300u);
+  const std::size_t cut = 170;
+  Slam straight(test_config());
+  std::string map_blob, slam_blob;
+  for (std::size_t i = 0; i < scans.size(); ++i) {
+    if (i == cut) {
+      map_blob = encode_map_snapshot(straight.map());
+      slam_blob = encode_slam_state(straight.state());
+    }
+    straight.process(scans[i]);
+  }
+  Slam resumed(test_config());
+  decode_map_snapshot(map_blob, resumed.map());
+  resumed.restore(decode_slam_state(slam_blob));
+  EXPECT_EQ(resumed.scans_processed(), cut);
+  EXPECT_GT(resumed.key_scans(), 10u);
+  for (std::size_t i = cut; i < scans.size(); ++i) resumed.process(scans[i]);
+
+  EXPECT_EQ(map_digest(resumed.map()), map_digest(straight.map()));
+  ASSERT_EQ(resumed.trajectory().size(), straight.trajectory().size());
+  for (std::size_t i = 0; i < scans.size(); ++i) {
+    EXPECT_EQ(resumed.trajectory()[i].pose.x, straight.trajectory()[i].pose.x) << i;
+    EXPECT_EQ(resumed.trajectory()[i].pose.theta, straight.trajectory()[i].pose.theta) << i;
+  }
+  EXPECT_EQ(resumed.loop_closures(), straight.loop_closures());
+  // Tile versions survive too.
+  for (const TileKey k : straight.map().tile_keys()) {
+    EXPECT_EQ(resumed.map().find_tile(k)->version, straight.map().find_tile(k)->version);
+  }
+}
+
+TEST(SlamSnapshot, DamageIsReportedWithTheField) {
+  const std::vector<LaserScan> scans = csail_scans(60);
+  Slam slam(test_config());
+  for (const LaserScan& s : scans) slam.process(s);
+  const std::string map_blob = encode_map_snapshot(slam.map());
+  const std::string slam_blob = encode_slam_state(slam.state());
+
+  auto map_error = [](std::string blob) {
+    GridMap map(test_config().map);
+    try {
+      decode_map_snapshot(blob, map);
+    } catch (const SnapshotError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  auto slam_error = [](std::string blob) {
+    try {
+      decode_slam_state(blob);
+    } catch (const SnapshotError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_EQ(map_error(map_blob), "no error");
+  EXPECT_EQ(slam_error(slam_blob), "no error");
+  EXPECT_NE(map_error(map_blob.substr(0, map_blob.size() / 2)).find("checksum"), std::string::npos);
+  std::string flipped = slam_blob;
+  flipped[flipped.size() / 2] ^= 0x40;
+  EXPECT_NE(slam_error(flipped).find("slam snapshot: checksum"), std::string::npos);
+  EXPECT_NE(slam_error("ESFMAP01xxxxxxxx").find("magic"), std::string::npos);
+  EXPECT_NE(slam_error("short").find("shorter"), std::string::npos);
+
+  // Another tile edge: the field is named.
+  SlamConfig other = test_config();
+  other.map.tile_edge = 32;
+  GridMap map(other.map);
+  try {
+    decode_map_snapshot(map_blob, map);
+    FAIL() << "accepted a snapshot of another tile edge";
+  } catch (const SnapshotError& e) {
+    EXPECT_NE(std::string(e.what()).find("tile_edge"), std::string::npos) << e.what();
+  }
+}
+
+TEST(SlamSnapshot, RestoreRefusesInconsistentState) {
+  Slam slam(test_config());
+  SlamState s;
+  s.graph_nodes.resize(2);  // no key scans
+  EXPECT_THROW(slam.restore(s), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace esfleet
