@@ -86,19 +86,28 @@ int main(int argc, char** argv) {
       "map.digest (per-tile counter digests) and stats.json at exit, and on SIGUSR1."};
   int domain = 0;
   std::string profile, map_id, save_dir, log_path, scan_robot, hint_text, trajectory_path;
+  std::string secure_dir;  // DDS Security (docs/security.md); empty = off
   std::string robot_id = "follower";
   bool exit_when_complete = false, wait_complete = false, latest_only = true;
-  double timeout = 0.0, rate = 1.0, idle_exit = 0.0;
+  double timeout = 0.0, rate = 1.0, idle_exit = 0.0, leader_timeout = 5.0;
   std::size_t max_scans = 0, first_scan = 0;
   cli.add_option("--domain", domain, "DDS domain id (0-232)")->capture_default_str();
   cli.add_option("--profile", profile,
                  "Fast DDS XML profile (deploy/fastdds/*.xml); default: Fast DDS defaults");
+  cli.add_option("--secure", secure_dir,
+                 "DDS Security: directory with this program's certificates and signed "
+                 "governance/permissions (deploy/security/make-fleet-certs.sh, docs/security.md)");
   cli.add_option("--map-id", map_id, "map to follow (default: the first one seen)");
   cli.add_option("--save-map", save_dir, "directory to save the map into (at exit, SIGUSR1)");
   cli.add_flag("--exit-when-complete", exit_when_complete,
                "without scans: exit (saving) once the leader's map is final and every tile is "
                "here");
   cli.add_option("--timeout", timeout, "stop after this many seconds (0 = no limit)")
+      ->capture_default_str();
+  cli.add_option("--leader-timeout", leader_timeout,
+                 "report the leader gone when no map summary came for S seconds while it was "
+                 "mapping (0 = only when DDS reports its writers gone); the map and tracking "
+                 "are kept either way")
       ->capture_default_str();
   auto* log_opt = cli.add_option("--log", log_path,
                                  "this robot's scans from a CARMEN log (localise in the map)");
@@ -145,8 +154,8 @@ int main(int argc, char** argv) {
     spdlog::error("{}", e.what());
     return 2;
   }
-  if (timeout < 0.0 || rate < 0.0 || idle_exit < 0.0) {
-    spdlog::error("--timeout, --rate and --idle-exit must be >= 0");
+  if (timeout < 0.0 || rate < 0.0 || idle_exit < 0.0 || leader_timeout < 0.0) {
+    spdlog::error("--timeout, --rate, --idle-exit and --leader-timeout must be >= 0");
     return 2;
   }
 
@@ -176,7 +185,8 @@ int main(int argc, char** argv) {
     return 2;
   }
   try {
-    node = std::make_unique<dds::Node>(dds::NodeOptions{domain, profile, "esfleet-follower"});
+    node = std::make_unique<dds::Node>(
+        dds::NodeOptions{domain, profile, "esfleet-follower", secure_dir});
     GridMapConfig local;
     local.pyramid_levels = std::max(lconfig.coarse_level, lconfig.mid_level);
     follow = std::make_unique<follower::MapFollower>(*node, map_id, local);
@@ -185,7 +195,7 @@ int main(int argc, char** argv) {
       topic = t.get();
       source = std::move(t);
     }
-    if (source) pose_writer = std::make_unique<dds::PoseWriter>(*node);
+    if (source) pose_writer = std::make_unique<dds::PoseWriter>(*node, robot_id);
   } catch (const std::exception& e) {
     spdlog::error("DDS: {}", e.what());
     return 2;
@@ -209,6 +219,74 @@ int main(int argc, char** argv) {
   std::vector<TimedPose> trajectory;
   LocalizerStep last_step;
   std::optional<std::uint32_t> epoch;
+
+  // The leader's presence. Present from its first map summary; gone when DDS unmatches its tile
+  // writer (participant lease expired or it left) or, while it maps, when no summary came for
+  // --leader-timeout s; back at the next summary. A lost leader changes nothing else: the map
+  // stays, tracking goes on, a resumed or new leader's tiles are applied as they come.
+  struct LeaderWatch {
+    bool present = false;
+    bool matched_seen = false;  ///< its tile writer was matched during this presence
+    std::uint64_t meta_seen = 0;
+    Clock::time_point last_meta;
+    Clock::time_point last_check;
+    std::uint64_t lost = 0, returned = 0;
+    double lost_at_s = -1.0;        ///< last loss: when noticed (s since start)
+    double silence_at_loss = -1.0;  ///< ... seconds after the last summary
+    double returned_at_s = -1.0;
+    std::string reason;
+  } leader;
+  auto watch_leader = [&] {
+    const auto now = Clock::now();
+    const auto& s = follow->stats();
+    if (s.meta_received != leader.meta_seen) {
+      leader.meta_seen = s.meta_received;
+      leader.last_meta = now;
+      if (!leader.present) {
+        leader.present = true;
+        leader.matched_seen = false;
+        if (leader.lost > 0) {
+          ++leader.returned;
+          leader.returned_at_s = seconds_since_start();
+          spdlog::info("leader back ({:.1f} s after it was reported gone)",
+                       leader.returned_at_s - leader.lost_at_s);
+        }
+      }
+    }
+    if (!leader.present || now - leader.last_check < std::chrono::milliseconds(100)) return;
+    leader.last_check = now;
+    const int matched = follow->matched_leaders();
+    if (matched > 0) leader.matched_seen = true;
+    const double silent = std::chrono::duration<double>(now - leader.last_meta).count();
+    const auto& meta = follow->replica().meta();
+    const bool mapping = meta && !meta->complete();
+    std::string why;
+    if (leader.matched_seen && matched == 0) {
+      why = "DDS reports its map writer gone";
+    } else if (leader_timeout > 0 && mapping && silent > leader_timeout) {
+      why = fmt::format("no map summary for {:.1f} s while it was mapping", silent);
+    }
+    if (why.empty()) return;
+    leader.present = false;
+    ++leader.lost;
+    leader.lost_at_s = seconds_since_start();
+    leader.silence_at_loss = silent;
+    leader.reason = why;
+    spdlog::warn(
+        "leader gone: {} (last summary {:.1f} s ago, at its scan {}); keeping the map ({} tiles) "
+        "and {}",
+        why, silent, meta ? meta->scans() : 0,
+        follow->replica().has_map() ? follow->replica().map().tile_count() : 0,
+        source ? "tracking" : "waiting");
+  };
+  auto leader_json = [&]() -> nlohmann::json {
+    return {{"present", leader.present},
+            {"lost_at_s", leader.lost_at_s},
+            {"silence_at_loss_s", leader.silence_at_loss},
+            {"returned_at_s", leader.returned_at_s},
+            {"reason", leader.reason},
+            {"leader_timeout_s", leader_timeout}};
+  };
 
   auto localise_json = [&]() -> nlohmann::json {
     const app::Summary tr = app::summarize(ls.tracking_cpu_ms);
@@ -291,6 +369,9 @@ int main(int argc, char** argv) {
           {"first_tile_s", first_tile_s},
           {"time_to_complete_s", complete_s},
           {"saved_because", why},
+          {"leader_lost", leader.lost},
+          {"leader_returned", leader.returned},
+          {"leader", leader_json()},
       };
       if (source) j["localisation"] = localise_json();
       write_file_atomically(save_dir + "/stats.json", j.dump(2) + "\n");
@@ -353,6 +434,7 @@ int main(int argc, char** argv) {
 
   while (!g_stop.load()) {
     follow->spin_once(std::chrono::milliseconds(source ? 2 : 50));
+    watch_leader();
     if (first_tile_s < 0 && follow->stats().tiles_applied > 0) first_tile_s = seconds_since_start();
     if (complete_s < 0 && follow->replica().complete()) {
       complete_s = seconds_since_start();

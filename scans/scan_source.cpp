@@ -68,8 +68,12 @@ TopicScanSource::TopicScanSource(dds::Node& node, std::string robot_id, double i
     : robot_id_(std::move(robot_id)),
       idle_exit_s_(idle_exit_s),
       latest_only_(latest_only),
-      reader_(node, [this](const msg::LaserScanMsg& m, const dds::SampleMeta&) { on_message(m); }) {
-}
+      // Subscribes to the robot's own partition only (scan writers publish in the partition named
+      // after their robot id): other robots' scans never reach this process. The robot_id check
+      // in on_message() stays for writers that set no partition.
+      reader_(
+          node, [this](const msg::LaserScanMsg& m, const dds::SampleMeta&) { on_message(m); },
+          robot_id_) {}
 
 void TopicScanSource::on_message(const msg::LaserScanMsg& m) {
   std::lock_guard lock(mutex_);

@@ -80,12 +80,13 @@ struct TopicScanStats {
   std::uint64_t dropped = 0;       ///< skipped by latest_only: a newer scan was waiting
 };
 
-/// The scans that robot `robot_id` publishes on the scan topic (dds::kScanTopic), in arrival
-/// order. next() ends (std::nullopt) when `stop` is set or, with idle_exit_s > 0, once at least
-/// one scan arrived and none has arrived for idle_exit_s seconds with the queue empty.
-/// A message that scan_from_msg refuses is dropped and counted; the first is logged.
-/// With latest_only, next() returns the newest waiting scan and drops (counts) the older ones:
-/// a consumer that fell behind (a global localisation takes ~1 s) catches up at once instead of
+/// The scans that robot `robot_id` publishes on the scan topic (dds::kScanTopic) in its own
+/// partition (named after the robot id, as every ScanWriter of the programs publishes), in
+/// arrival order. next() ends (std::nullopt) when `stop` is set or, with idle_exit_s > 0, once at
+/// least one scan arrived and none has arrived for idle_exit_s seconds with the queue empty. A
+/// message that scan_from_msg refuses is dropped and counted; the first is logged. With
+/// latest_only, next() returns the newest waiting scan and drops (counts) the older ones: a
+/// consumer that fell behind (a global localisation takes ~1 s) catches up at once instead of
 /// working through a backlog of stale scans. Odometry in the scans is absolute, so a consumer
 /// loses no motion information by skipping scans.
 class TopicScanSource : public ScanSource {

@@ -51,9 +51,11 @@ struct SimOptions {
   double duration = 0.0;            ///< seconds of sim time; 0 = until SIGINT/SIGTERM
   int domain = 0;                   ///< DDS domain id
   std::string profile;              ///< Fast DDS XML profile; empty = Fast DDS defaults
+  std::string secure;               ///< DDS Security directory (docs/security.md); empty = off
   std::string out_log;              ///< directory for <id>.log and <id>.truth; empty = none
   bool offline = false;             ///< no DDS, as fast as possible (needs out_log, duration)
   int wait_subscribers = 0;         ///< before the first tick, wait for this many scan readers
+                                    ///< (summed over the robots' writers)
   double wait_timeout = 30.0;       ///< ... at most this many seconds
 
   /// Throws std::invalid_argument naming the flag.
@@ -88,29 +90,58 @@ double process_cpu_seconds() {
   return secs(ru.ru_utime) + secs(ru.ru_stime);
 }
 
-/// The DDS side: one participant, the scan and truth writers.
+/// The DDS side: one participant, one scan writer per robot (in the robot's partition, so a
+/// reader of one robot gets only its scans; docs/security.md) and the truth writer (partition
+/// "sim").
 struct Publisher {
   std::unique_ptr<esfleet::dds::Node> node;
-  std::unique_ptr<esfleet::dds::ScanWriter> scans;
+  std::vector<std::unique_ptr<esfleet::dds::ScanWriter>> scans;  ///< per robot, fleet order
   std::unique_ptr<esfleet::dds::TruthWriter> truth;
   std::vector<std::uint32_t> seq;  ///< next scan seq per robot
 
-  Publisher(const SimOptions& o) {
+  Publisher(const SimOptions& o, const esfleet::sim::Fleet& fleet) {
     node = std::make_unique<esfleet::dds::Node>(
-        esfleet::dds::NodeOptions{o.domain, o.profile, "esfleet-sim"});
-    scans = std::make_unique<esfleet::dds::ScanWriter>(*node);
-    truth = std::make_unique<esfleet::dds::TruthWriter>(*node);
-    seq.assign(static_cast<std::size_t>(o.fleet.robots), 0);
+        esfleet::dds::NodeOptions{o.domain, o.profile, "esfleet-sim", o.secure});
+    for (const auto& r : fleet.robots()) {
+      scans.push_back(std::make_unique<esfleet::dds::ScanWriter>(*node, r.id()));
+    }
+    truth = std::make_unique<esfleet::dds::TruthWriter>(*node, esfleet::dds::kSimPartition);
+    seq.assign(scans.size(), 0);
   }
   ~Publisher() {
     // Writers before the node (node.hpp).
     truth.reset();
-    scans.reset();
+    scans.clear();
     node.reset();
+  }
+  /// Scan readers matched, summed over the robots' writers (a reader of every robot counts once
+  /// per robot).
+  int scan_readers() const {
+    int n = 0;
+    for (const auto& w : scans) n += w->matched_readers();
+    return n;
+  }
+  std::uint64_t scans_written() const {
+    std::uint64_t n = 0;
+    for (const auto& w : scans) n += w->samples_written();
+    return n;
+  }
+  std::uint64_t scan_bytes() const {
+    std::uint64_t n = 0;
+    for (const auto& w : scans) n += w->bytes_written();
+    return n;
+  }
+  /// Waits (up to `timeout` per writer) for every matched reader to acknowledge every scan.
+  bool wait_for_scan_acks(std::chrono::milliseconds timeout) const {
+    bool ok = true;
+    for (const auto& w : scans) {
+      if (w->matched_readers() > 0) ok = w->wait_for_acknowledgments(timeout) && ok;
+    }
+    return ok;
   }
   void publish(std::size_t index, const esfleet::sim::RobotSample& s) {
     const std::string& id = s.robot->id();
-    if (!scans->write(esfleet::dds::scan_to_msg(id, seq[index]++, s.scan))) {
+    if (!scans[index]->write(esfleet::dds::scan_to_msg(id, seq[index]++, s.scan))) {
       spdlog::warn("DDS refused a scan of {}", id);
     }
     if (!truth->write(esfleet::dds::truth_to_msg(id, s.truth))) {
@@ -121,11 +152,11 @@ struct Publisher {
     if (count <= 0) return;
     spdlog::info("waiting up to {} s for {} scan reader(s)", timeout_s, count);
     const auto deadline = Clock::now() + std::chrono::duration<double>(timeout_s);
-    while (!g_stop.load() && Clock::now() < deadline && !scans->wait_for_matched(count, kPoll)) {
+    while (!g_stop.load() && Clock::now() < deadline && scan_readers() < count) {
+      std::this_thread::sleep_for(kPoll);
     }
-    if (scans->matched_readers() < count && !g_stop.load()) {
-      spdlog::warn("only {} of {} scan reader(s) matched: starting anyway",
-                   scans->matched_readers(), count);
+    if (scan_readers() < count && !g_stop.load()) {
+      spdlog::warn("only {} of {} scan reader(s) matched: starting anyway", scan_readers(), count);
     }
   }
 };
@@ -184,8 +215,12 @@ std::optional<int> parse(int argc, char** argv, SimOptions& o) {
   cli.add_option("--domain", o.domain, "DDS domain id (0-232)")->capture_default_str();
   cli.add_option("--profile", o.profile,
                  "Fast DDS XML profile (deploy/fastdds/*.xml); default: Fast DDS defaults");
+  cli.add_option("--secure", o.secure,
+                 "DDS Security: directory with this program's certificates and signed "
+                 "governance/permissions (deploy/security/make-fleet-certs.sh, docs/security.md)");
   cli.add_option("--wait-subscribers", o.wait_subscribers,
-                 "before the first tick, wait until N scan readers are matched")
+                 "before the first tick, wait until N scan readers are matched (summed over "
+                 "the robots: a reader of every robot counts once per robot)")
       ->capture_default_str();
   cli.add_option("--wait-timeout", o.wait_timeout, "wait at most S seconds, then start anyway")
       ->capture_default_str();
@@ -276,7 +311,7 @@ int main(int argc, char** argv) {
       for (const auto& r : fleet->robots()) logs.emplace_back(o.out_log, r.id());
     }
     if (!o.offline) {
-      publisher = std::make_unique<Publisher>(o);
+      publisher = std::make_unique<Publisher>(o, *fleet);
       publisher->wait_for_readers(o.wait_subscribers, o.wait_timeout);
     }
   } catch (const std::exception& e) {
@@ -333,7 +368,7 @@ int main(int argc, char** argv) {
           fleet->sim_time(), fleet->ticks(), fleet->robots().size(),
           100.0 * (process_cpu_seconds() - cpu_start) / wall,
           1e3 * tick_cpu / static_cast<double>(fleet->ticks()),
-          publisher ? fmt::format(", {} scan reader(s)", publisher->scans->matched_readers())
+          publisher ? fmt::format(", {} scan reader(s)", publisher->scan_readers())
                     : std::string());
     }
   }
@@ -344,8 +379,7 @@ int main(int argc, char** argv) {
     spdlog::error("{}", e.what());
     ok = false;
   }
-  if (publisher && publisher->scans->matched_readers() > 0 &&
-      !publisher->scans->wait_for_acknowledgments(kFinalAckTimeout)) {
+  if (publisher && !publisher->wait_for_scan_acks(kFinalAckTimeout)) {
     spdlog::warn("scan readers did not acknowledge the last scans within {} s",
                  kFinalAckTimeout.count());
   }
@@ -367,10 +401,9 @@ int main(int argc, char** argv) {
   }
   if (publisher) {
     spdlog::info(
-        "published {} scans and {} truth samples ({:.1f} kB)", publisher->scans->samples_written(),
+        "published {} scans and {} truth samples ({:.1f} kB)", publisher->scans_written(),
         publisher->truth->samples_written(),
-        static_cast<double>(publisher->scans->bytes_written() + publisher->truth->bytes_written()) /
-            1e3);
+        static_cast<double>(publisher->scan_bytes() + publisher->truth->bytes_written()) / 1e3);
   }
   publisher.reset();  // deletes the DDS participant
   if (!ok) return kExitError;

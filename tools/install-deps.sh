@@ -9,6 +9,8 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libfastrtps-dev libfastcdr-dev fastddsgen fastdds-tools default-jre-headless
   iproute2 nftables  # deploy/netns/testbed.sh and its test (network namespaces, tc, loss)
+  clang libclang-rt-14-dev  # fuzz/: clang 14 with libFuzzer and the ASan/UBSan runtimes
+  openssl tcpdump  # deploy/security/make-fleet-certs.sh; the security capture test
 )
 missing=()
 for p in "${packages[@]}"; do

@@ -57,6 +57,7 @@ struct ReplayOptions {
   double rate = 1.0;           ///< 1 = recorded speed, 2 = twice as fast, 0 = as fast as possible
   int domain = 0;              ///< DDS domain id
   std::string profile;         ///< Fast DDS XML profile; empty = Fast DDS defaults
+  std::string secure;          ///< DDS Security directory (docs/security.md); empty = off
   std::size_t max_scans = 0;   ///< publish only the first N scans; 0 = all
   std::size_t first_scan = 0;  ///< skip the scans before this one
   int wait_subscribers = 1;    ///< before the first scan, wait for this many scan readers
@@ -131,6 +132,9 @@ int main(int argc, char** argv) {
   cli.add_option("--domain", o.domain, "DDS domain id (0-232)")->capture_default_str();
   cli.add_option("--profile", o.profile,
                  "Fast DDS XML profile (deploy/fastdds/*.xml); default: Fast DDS defaults");
+  cli.add_option("--secure", o.secure,
+                 "DDS Security: directory with this program's certificates and signed "
+                 "governance/permissions (deploy/security/make-fleet-certs.sh, docs/security.md)");
   cli.add_option("--first-scan", o.first_scan,
                  "start at this scan of the log (counted from 0, before --max-scans applies)")
       ->capture_default_str();
@@ -183,8 +187,10 @@ int main(int argc, char** argv) {
   std::unique_ptr<dds::Node> node;
   std::unique_ptr<dds::ScanWriter> writer;
   try {
-    node = std::make_unique<dds::Node>(dds::NodeOptions{o.domain, o.profile, "esfleet-replay"});
-    writer = std::make_unique<dds::ScanWriter>(*node);
+    node = std::make_unique<dds::Node>(
+        dds::NodeOptions{o.domain, o.profile, "esfleet-replay", o.secure});
+    // In the robot's partition: readers of this robot get only its scans (docs/security.md).
+    writer = std::make_unique<dds::ScanWriter>(*node, o.robot_id);
   } catch (const std::exception& e) {
     spdlog::error("DDS: {}", e.what());
     return kExitError;

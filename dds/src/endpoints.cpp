@@ -100,6 +100,11 @@ std::int64_t realtime_ns() {
   return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
 }
 
+/// " in partition 'X'" for error messages, "" for the default partition.
+std::string partition_suffix(const std::string& partition) {
+  return partition.empty() ? std::string() : " in partition '" + partition + "'";
+}
+
 /// Polls `count_now` every 10 ms until it reaches `count` or `timeout` passes.
 template <class F>
 bool poll_until(int count, std::chrono::milliseconds timeout, F count_now) {
@@ -118,7 +123,8 @@ namespace detail {
 template <class Msg>
 struct WriterImpl {
   std::shared_ptr<NodeImpl> node;
-  typename Traits<Msg>::PubSub type;  ///< for getSerializedSizeProvider
+  typename Traits<Msg>::PubSub type;     ///< for getSerializedSizeProvider
+  fdds::Publisher* publisher = nullptr;  ///< the node's publisher of the writer's partition
   fdds::DataWriter* writer = nullptr;
   std::atomic<std::uint64_t> samples{0};
   std::atomic<std::uint64_t> bytes{0};
@@ -131,6 +137,7 @@ struct ReaderImpl : fdds::DataReaderListener {
   std::shared_ptr<NodeImpl> node;
   typename Traits<Msg>::PubSub type;  ///< for getSerializedSizeProvider
   typename Reader<Msg>::Callback callback;
+  fdds::Subscriber* subscriber = nullptr;  ///< the node's subscriber of the reader's partition
   fdds::DataReader* reader = nullptr;
 
   std::mutex callback_mutex;           ///< held while taking and delivering; serialises callbacks
@@ -185,7 +192,8 @@ struct ReaderImpl : fdds::DataReaderListener {
 // Writer
 
 template <class Msg>
-Writer<Msg>::Writer(Node& node) : impl_(std::make_unique<detail::WriterImpl<Msg>>()) {
+Writer<Msg>::Writer(Node& node, const std::string& partition)
+    : impl_(std::make_unique<detail::WriterImpl<Msg>>()) {
   using T = Traits<Msg>;
   impl_->node = node.impl_;
   detail::NodeImpl& n = *impl_->node;
@@ -195,14 +203,16 @@ Writer<Msg>::Writer(Node& node) : impl_(std::make_unique<detail::WriterImpl<Msg>
                              ": the node is closed");
   }
   fdds::Topic* topic = n.topic(T::kTopic, fdds::TypeSupport(new typename T::PubSub()));
-  fdds::DataWriterQos qos = n.publisher->get_default_datawriter_qos();
+  fdds::Publisher* publisher = impl_->publisher = n.publisher_in(partition);
+  fdds::DataWriterQos qos = publisher->get_default_datawriter_qos();
   set_common_qos<Msg>(qos);
   // Heartbeat every 100 ms (default 3 s): a lost last sample is repaired within ~100 ms.
   qos.reliable_writer_qos().times.heartbeatPeriod = eprosima::fastrtps::Duration_t(0, 100'000'000);
-  impl_->writer = n.publisher->create_datawriter(topic, qos, nullptr, fdds::StatusMask::none());
+  impl_->writer = publisher->create_datawriter(topic, qos, nullptr, fdds::StatusMask::none());
   if (impl_->writer == nullptr) {
     throw std::runtime_error("esfleet::dds: cannot create the DataWriter of " +
-                             std::string(T::kTopic));
+                             std::string(T::kTopic) + partition_suffix(partition) +
+                             (n.secure ? " (with security: do the permissions allow it?)" : ""));
   }
 }
 
@@ -212,7 +222,7 @@ Writer<Msg>::~Writer() {
   detail::NodeImpl& n = *impl_->node;
   std::lock_guard lock(n.entity_mutex);
   if (n.participant != nullptr && impl_->writer != nullptr) {
-    n.publisher->delete_datawriter(impl_->writer);
+    impl_->publisher->delete_datawriter(impl_->writer);
   }
 }
 
@@ -281,7 +291,7 @@ bool Writer<Msg>::wait_for_acknowledgments(std::chrono::milliseconds timeout) co
 // Reader
 
 template <class Msg>
-Reader<Msg>::Reader(Node& node, Callback callback)
+Reader<Msg>::Reader(Node& node, Callback callback, const std::string& partition)
     : impl_(std::make_unique<detail::ReaderImpl<Msg>>()) {
   using T = Traits<Msg>;
   if (!callback) {
@@ -297,14 +307,16 @@ Reader<Msg>::Reader(Node& node, Callback callback)
                              ": the node is closed");
   }
   fdds::Topic* topic = n.topic(T::kTopic, fdds::TypeSupport(new typename T::PubSub()));
-  fdds::DataReaderQos qos = n.subscriber->get_default_datareader_qos();
+  fdds::Subscriber* subscriber = impl_->subscriber = n.subscriber_in(partition);
+  fdds::DataReaderQos qos = subscriber->get_default_datareader_qos();
   set_common_qos<Msg>(qos);
   // The listener is attached to the DataReader with only data_available enabled (pitfall 1).
   impl_->reader =
-      n.subscriber->create_datareader(topic, qos, impl_.get(), fdds::StatusMask::data_available());
+      subscriber->create_datareader(topic, qos, impl_.get(), fdds::StatusMask::data_available());
   if (impl_->reader == nullptr) {
     throw std::runtime_error("esfleet::dds: cannot create the DataReader of " +
-                             std::string(T::kTopic));
+                             std::string(T::kTopic) + partition_suffix(partition) +
+                             (n.secure ? " (with security: do the permissions allow it?)" : ""));
   }
 }
 
@@ -318,7 +330,7 @@ Reader<Msg>::~Reader() {
   detail::NodeImpl& n = *impl_->node;
   std::lock_guard lock(n.entity_mutex);
   if (n.participant != nullptr && impl_->reader != nullptr) {
-    n.subscriber->delete_datareader(impl_->reader);
+    impl_->subscriber->delete_datareader(impl_->reader);
   }
 }
 

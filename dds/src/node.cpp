@@ -18,6 +18,8 @@
 #include <esfleet/msg/esfleet.h>
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
 #include <fastdds/dds/domain/qos/DomainParticipantQos.hpp>
+#include <fastdds/dds/publisher/qos/PublisherQos.hpp>
+#include <fastdds/dds/subscriber/qos/SubscriberQos.hpp>
 
 #include "node_impl.hpp"
 
@@ -99,6 +101,51 @@ fdds::DomainParticipantQos participant_qos(const std::string& profile_file) {
   return by_file.emplace(key, std::move(qos)).first->second;
 }
 
+/// Turns on DDS Security with the files in `dir` (NodeOptions::secure_dir): PKI-DH
+/// authentication, AES-GCM-GMAC crypto, Access-Permissions access control. Every file is checked
+/// here first, because Fast DDS only prints a generic error to stdout and returns no participant.
+/// URIs must be file:///absolute (docs/fastdds.md).
+void add_security_properties(fdds::DomainParticipantQos& qos, const std::string& dir) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::path base = fs::absolute(dir, ec);
+  if (ec || !fs::is_directory(base, ec)) {
+    fail("security directory '" + dir + "' does not exist or is not a directory");
+  }
+  auto uri = [&](const char* file, bool required) -> std::optional<std::string> {
+    const fs::path path = base / file;
+    if (!fs::is_regular_file(path, ec)) {
+      if (!required && !fs::exists(path, ec)) return std::nullopt;
+      fail("security file '" + path.string() + "' is missing or not a regular file");
+    }
+    std::ifstream in(path);
+    if (!in || in.peek() == std::ifstream::traits_type::eof()) {
+      fail("security file '" + path.string() + "' is unreadable or empty");
+    }
+    return "file://" + fs::weakly_canonical(path, ec).string();
+  };
+  std::map<std::string, std::string> files;
+  for (const char* file : kSecurityFiles) files[file] = *uri(file, true);
+  const std::optional<std::string> crl = uri(kSecurityCrlFile, false);
+
+  auto& props = qos.properties().properties();
+  auto set = [&](const std::string& name, const std::string& value) {
+    props.emplace_back(name, value);
+  };
+  const std::string auth = "dds.sec.auth.builtin.PKI-DH.";
+  const std::string access = "dds.sec.access.builtin.Access-Permissions.";
+  set("dds.sec.auth.plugin", "builtin.PKI-DH");
+  set(auth + "identity_ca", files["identity_ca.pem"]);
+  set(auth + "identity_certificate", files["cert.pem"]);
+  set(auth + "private_key", files["key.pem"]);
+  if (crl) set(auth + "identity_crl", *crl);
+  set("dds.sec.crypto.plugin", "builtin.AES-GCM-GMAC");
+  set("dds.sec.access.plugin", "builtin.Access-Permissions");
+  set(access + "permissions_ca", files["permissions_ca.pem"]);
+  set(access + "governance", files["governance.p7s"]);
+  set(access + "permissions", files["permissions.p7s"]);
+}
+
 }  // namespace
 
 namespace detail {
@@ -117,6 +164,36 @@ fdds::Topic* NodeImpl::topic(std::string_view name, fdds::TypeSupport type) {
   return t;
 }
 
+fdds::Publisher* NodeImpl::publisher_in(const std::string& partition) {
+  if (partition.empty()) return publisher;
+  if (auto it = partition_publishers.find(partition); it != partition_publishers.end()) {
+    return it->second;
+  }
+  fdds::PublisherQos qos = participant->get_default_publisher_qos();
+  qos.partition().push_back(partition.c_str());
+  fdds::Publisher* p = participant->create_publisher(qos);
+  if (p == nullptr) {
+    throw std::runtime_error("esfleet::dds: cannot create a Publisher in partition '" + partition +
+                             "'");
+  }
+  return partition_publishers.emplace(partition, p).first->second;
+}
+
+fdds::Subscriber* NodeImpl::subscriber_in(const std::string& partition) {
+  if (partition.empty()) return subscriber;
+  if (auto it = partition_subscribers.find(partition); it != partition_subscribers.end()) {
+    return it->second;
+  }
+  fdds::SubscriberQos qos = participant->get_default_subscriber_qos();
+  qos.partition().push_back(partition.c_str());
+  fdds::Subscriber* s = participant->create_subscriber(qos);
+  if (s == nullptr) {
+    throw std::runtime_error("esfleet::dds: cannot create a Subscriber in partition '" + partition +
+                             "'");
+  }
+  return partition_subscribers.emplace(partition, s).first->second;
+}
+
 void NodeImpl::close() {
   {
     std::unique_lock lock(state_mutex);  // waits for writes in progress
@@ -132,6 +209,8 @@ void NodeImpl::close() {
   publisher = nullptr;
   subscriber = nullptr;
   topics.clear();
+  partition_publishers.clear();
+  partition_subscribers.clear();
 }
 
 }  // namespace detail
@@ -144,6 +223,10 @@ Node::Node(NodeOptions options)
   }
   fdds::DomainParticipantQos qos = participant_qos(options_.profile_file);
   if (!options_.name.empty()) qos.name(options_.name);
+  if (!options_.secure_dir.empty()) {
+    add_security_properties(qos, options_.secure_dir);
+    impl_->secure = true;
+  }
   auto& announcements = qos.wire_protocol().builtin.discovery_config.initial_announcements;
   announcements.count =
       std::max(announcements.count, static_cast<std::uint32_t>(kMinInitialAnnouncements));
@@ -154,7 +237,11 @@ Node::Node(NodeOptions options)
   const std::string where =
       " on domain " + std::to_string(options_.domain) +
       (options_.profile_file.empty() ? std::string(" with the default QoS")
-                                     : " with profile file '" + options_.profile_file + "'");
+                                     : " with profile file '" + options_.profile_file + "'") +
+      (options_.secure_dir.empty()
+           ? std::string()
+           : " and security files in '" + options_.secure_dir +
+                 "' (Fast DDS rejected a certificate, key or signed XML file: see its messages)");
   if (impl_->participant == nullptr) fail("cannot create the DomainParticipant" + where);
   impl_->publisher = impl_->participant->create_publisher(fdds::PUBLISHER_QOS_DEFAULT);
   if (impl_->publisher == nullptr) {

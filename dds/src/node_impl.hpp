@@ -27,16 +27,29 @@ struct NodeImpl {
   fdds::DomainParticipant* participant = nullptr;
   fdds::Publisher* publisher = nullptr;
   fdds::Subscriber* subscriber = nullptr;
+  bool secure = false;  ///< DDS Security on (NodeOptions::secure_dir set); for error messages
 
   std::shared_mutex state_mutex;
   bool closed = false;  ///< guarded by state_mutex; set once the node is being destroyed
 
   std::mutex entity_mutex;
   std::map<std::string, fdds::Topic*, std::less<>> topics;  ///< guarded by entity_mutex
+  /// Publishers and Subscribers of non-default partitions, by partition name; created on first
+  /// use. Partition QoS lives on the Publisher/Subscriber (this is also what DDS Security access
+  /// control checks). Guarded by entity_mutex.
+  std::map<std::string, fdds::Publisher*, std::less<>> partition_publishers;
+  std::map<std::string, fdds::Subscriber*, std::less<>> partition_subscribers;
 
   /// The topic `name` of type `type`, created (and the type registered) on first use.
   /// Caller holds entity_mutex. Throws std::runtime_error if Fast DDS refuses.
   fdds::Topic* topic(std::string_view name, fdds::TypeSupport type);
+
+  /// The Publisher (Subscriber) of partition `partition`: the node's default one for "", else
+  /// one with that single partition name, created on first use. Caller holds entity_mutex.
+  /// Throws std::runtime_error if Fast DDS refuses (with security: the permissions do not allow
+  /// this partition for any topic).
+  fdds::Publisher* publisher_in(const std::string& partition);
+  fdds::Subscriber* subscriber_in(const std::string& partition);
 
   /// Deletes every contained entity and the participant; idempotent.
   void close();

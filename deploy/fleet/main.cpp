@@ -197,6 +197,7 @@ int main(int argc, char** argv) {
   std::string summary_path, out_dir = "out/fleet", bin_dir;
   std::string world = "data/worlds/mit-csail/map.yaml", log = "data/mit-csail/mit-csail.clf.gz";
   std::string profile = "deploy/fastdds/localhost-shm.xml";
+  std::string secure_dir;  // DDS Security: one subdirectory per identity (docs/security.md)
   std::string leader_args = "--odometry on", follower_args = "--odometry on", sim_args;
   bool live = isatty(STDOUT_FILENO) != 0, wait_map = false;
   cli.add_option("--robots", robots, "simulated robots, one follower each")
@@ -219,6 +220,10 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   cli.add_option("--profile", profile, "Fast DDS XML profile for every program")
       ->capture_default_str();
+  cli.add_option("--secure", secure_dir,
+                 "DDS Security for every program: DIR/<id> per identity (leader, robot-1..N, "
+                 "sim, and monitor for this launcher), as deploy/security/make-fleet-certs.sh "
+                 "makes them (docs/security.md)");
   cli.add_option("--world", world, "world map for the simulator (ROS map YAML)")
       ->capture_default_str();
   cli.add_option("--log", log, "CARMEN log the leader maps (its map's frame is the world's)")
@@ -255,6 +260,21 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
+  // --secure: DIR/<id> for every identity the fleet uses (the Node checks the files in each).
+  auto secure_for = [&](const std::string& id) {
+    return secure_dir.empty() ? std::string() : (fs::path(secure_dir) / id).string();
+  };
+  if (!secure_dir.empty()) {
+    std::vector<std::string> ids = {"leader", "sim", "monitor"};
+    for (int k = 1; k <= robots; ++k) ids.push_back("robot-" + std::to_string(k));
+    for (const auto& id : ids) {
+      if (!fs::is_directory(secure_for(id))) {
+        spdlog::error("--secure {}: no directory {} (make-fleet-certs.sh {} ... {})", secure_dir,
+                      secure_for(id), secure_dir, id);
+        return 2;
+      }
+    }
+  }
   for (const char* prog : {"esfleet-leader", "esfleet-follower", "esfleet-sim"}) {
     if (access((bin_dir + "/" + prog).c_str(), X_OK) != 0) {
       spdlog::error("--bin-dir {}: no executable {}", bin_dir, prog);
@@ -286,17 +306,24 @@ int main(int argc, char** argv) {
   std::unique_ptr<dds::TruthReader> truth_reader;
   std::unique_ptr<dds::MetaReader> meta_reader;
   try {
-    node = std::make_unique<dds::Node>(dds::NodeOptions{domain, profile, "esfleet-fleet"});
-    pose_reader = std::make_unique<dds::PoseReader>(*node, [&](const msg::RobotPose& m,
-                                                               const dds::SampleMeta&) {
-      std::lock_guard lock(mutex);
-      poses.push_back({m.robot_id().to_string(), m.stamp(), m.x(), m.y(), m.theta(), m.status()});
-    });
+    node = std::make_unique<dds::Node>(
+        dds::NodeOptions{domain, profile, "esfleet-fleet", secure_for("monitor")});
+    // Every robot's partition (pose and truth writers publish in their robot's / "sim").
+    pose_reader = std::make_unique<dds::PoseReader>(
+        *node,
+        [&](const msg::RobotPose& m, const dds::SampleMeta&) {
+          std::lock_guard lock(mutex);
+          poses.push_back(
+              {m.robot_id().to_string(), m.stamp(), m.x(), m.y(), m.theta(), m.status()});
+        },
+        dds::kAllPartitions);
     truth_reader = std::make_unique<dds::TruthReader>(
-        *node, [&](const msg::TruthPose& m, const dds::SampleMeta&) {
+        *node,
+        [&](const msg::TruthPose& m, const dds::SampleMeta&) {
           std::lock_guard lock(mutex);
           truths.push_back({m.robot_id().to_string(), m.stamp(), m.x(), m.y(), m.theta()});
-        });
+        },
+        dds::kAllPartitions);
     meta_reader = std::make_unique<dds::MetaReader>(
         *node, [&](const msg::MapMeta& m, const dds::SampleMeta&) {
           std::lock_guard lock(mutex);
@@ -307,8 +334,14 @@ int main(int argc, char** argv) {
     return 2;
   }
 
-  const std::vector<std::string> dds_flags = {"--domain", std::to_string(domain), "--profile",
-                                              profile};
+  const std::vector<std::string> common_dds_flags = {"--domain", std::to_string(domain),
+                                                     "--profile", profile};
+  // The DDS flags of the child with identity `id`: --secure DIR/<id> when secure.
+  auto dds_flags = [&](const std::string& id) {
+    std::vector<std::string> flags = common_dds_flags;
+    if (!secure_dir.empty()) flags.insert(flags.end(), {"--secure", secure_for(id)});
+    return flags;
+  };
   auto with = [](std::vector<std::string> a, const std::vector<std::string>& b) {
     a.insert(a.end(), b.begin(), b.end());
     return a;
@@ -325,7 +358,7 @@ int main(int argc, char** argv) {
     leader.pid = spawn(
         with(with({bin_dir + "/esfleet-leader", "--log", log, "--rate", std::to_string(leader_rate),
                    "--linger", "-1", "--out", out_dir + "/leader"},
-                  dds_flags),
+                  dds_flags("leader")),
              split_args(leader_args)),
         leader.log);
   } catch (const std::exception& e) {
@@ -372,7 +405,7 @@ int main(int argc, char** argv) {
           with(with({bin_dir + "/esfleet-follower", "--scan-topic", f.name, "--robot-id", f.name,
                      "--seed", std::to_string(seed + k), "--save-map", out_dir + "/" + f.name,
                      "--trajectory", out_dir + "/" + f.name + "/trajectory.txt"},
-                    dds_flags),
+                    dds_flags(f.name)),
                split_args(follower_args)),
           f.log);
     }
@@ -380,7 +413,7 @@ int main(int argc, char** argv) {
     sim.pid = spawn(
         with(with({bin_dir + "/esfleet-sim", "--world", world, "--robots", std::to_string(robots),
                    "--rate", std::to_string(rate), "--seed", std::to_string(seed)},
-                  dds_flags),
+                  dds_flags("sim")),
              split_args(sim_args)),
         sim.log);
   } catch (const std::exception& e) {

@@ -27,7 +27,20 @@ struct NodeOptions {
   std::string profile_file;
   /// Participant name shown by discovery tools; empty keeps the profile's name.
   std::string name;
+  /// DDS Security (docs/security.md): empty = off. Otherwise a directory holding this
+  /// participant's security files under the fixed names kSecurityFiles (identity_ca.pem,
+  /// cert.pem, key.pem, permissions_ca.pem, governance.p7s, permissions.p7s; optional crl.pem),
+  /// as made by deploy/security/make-fleet-certs.sh. The node turns on PKI-DH authentication,
+  /// AES-GCM-GMAC encryption and Access-Permissions access control with them.
+  std::string secure_dir = {};  // "= {}": aggregate inits that stop before it need no warning
 };
+
+/// The files a NodeOptions::secure_dir must hold (all required).
+inline constexpr const char* kSecurityFiles[] = {"identity_ca.pem", "cert.pem",
+                                                 "key.pem",         "permissions_ca.pem",
+                                                 "governance.p7s",  "permissions.p7s"};
+/// Optional file in NodeOptions::secure_dir: a certificate revocation list of the identity CA.
+inline constexpr const char* kSecurityCrlFile = "crl.pem";
 
 namespace detail {
 struct NodeImpl;
@@ -51,7 +64,9 @@ class Node {
 
   /// Creates the participant. Throws std::runtime_error with a message naming the cause: domain
   /// out of range, missing or unreadable profile file, XML errors, no default participant
-  /// profile in the file, or Fast DDS refusing to create an entity.
+  /// profile in the file, a missing or unreadable security file (named, checked before Fast DDS
+  /// sees it), or Fast DDS refusing to create an entity (with security: a certificate, key or
+  /// signed XML that Fast DDS rejects; its own messages on stdout say which).
   explicit Node(NodeOptions options = {});
   ~Node();
   Node(const Node&) = delete;

@@ -52,10 +52,13 @@ class Reader {
   /// Called on the DDS listener thread, once per valid received sample.
   using Callback = std::function<void(const Msg&, const SampleMeta&)>;
 
-  /// Creates the DataReader on `node`'s subscriber; callbacks may start before the constructor
-  /// returns. Throws std::invalid_argument for an empty callback and std::runtime_error naming
-  /// the topic if Fast DDS refuses.
-  Reader(Node& node, Callback callback);
+  /// Creates the DataReader on `node`'s subscriber of partition `partition`; callbacks may
+  /// start before the constructor returns. `partition`: "" = the default partition (map topics;
+  /// writers that set no partition), a robot id = that robot's pose/scans only, kAllPartitions
+  /// ("*") = every robot's (Fast DDS 2.9 matches "*" against every writer partition, the default
+  /// one included). Throws std::invalid_argument for an empty callback and std::runtime_error
+  /// naming the topic if Fast DDS refuses (with security: also when the permissions forbid it).
+  Reader(Node& node, Callback callback, const std::string& partition = {});
   /// Stops the callbacks (waits for a running one to finish), then deletes the DataReader.
   /// Must not be called from inside the callback.
   ~Reader();

@@ -26,6 +26,12 @@ inline constexpr int kDefaultDomain = 0;
 /// 16-bit UDP port range).
 inline constexpr int kMaxDomain = 232;
 
+/// Reader partition that matches every writer partition: readers of everyone's poses or scans
+/// (writers of the robot topics publish in the partition named after their robot id).
+inline constexpr const char* kAllPartitions = "*";
+/// Partition of the simulator's truth writer when it has no robot id (see sim/).
+inline constexpr const char* kSimPartition = "sim";
+
 /// Map tiles (msg::MapTile): reliable, transient-local, keep last 1 per tile.
 inline constexpr std::string_view kTileTopic = "esfleet/map/tiles";
 /// Tile deltas (msg::MapTileDelta): reliable, volatile, keep last 64 per tile.

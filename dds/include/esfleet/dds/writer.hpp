@@ -21,6 +21,7 @@
 #include <chrono>
 #include <cstdint>
 #include <memory>
+#include <string>
 #include <string_view>
 
 #include <esfleet/msg/esfleet.h>
@@ -39,9 +40,14 @@ struct WriterImpl;
 template <class Msg>
 class Writer {
  public:
-  /// Creates the DataWriter on `node`'s publisher. Throws std::runtime_error naming the topic if
-  /// Fast DDS refuses. The node must outlive the writer's use (see node.hpp).
-  explicit Writer(Node& node);
+  /// Creates the DataWriter on `node`'s publisher of partition `partition` ("" = the default
+  /// partition). Robot topics (pose, scan, truth) are published in the partition named after
+  /// the robot id, so that readers can pick one robot and DDS Security permissions can allow a
+  /// robot its own partition only (docs/security.md); the map topics use the default partition.
+  /// Throws std::runtime_error naming the topic if Fast DDS refuses (with security: also when
+  /// the permissions do not allow this topic in this partition). The node must outlive the
+  /// writer's use (see node.hpp).
+  explicit Writer(Node& node, const std::string& partition = {});
   ~Writer();
   Writer(const Writer&) = delete;
   Writer& operator=(const Writer&) = delete;
