@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 
+#include "app/dds_flags.hpp"
 #include "app/localise_params.hpp"
 #include "app/slam_params.hpp"
 #include "app/slam_run.hpp"
@@ -91,12 +92,7 @@ int main(int argc, char** argv) {
   bool exit_when_complete = false, wait_complete = false, latest_only = true;
   double timeout = 0.0, rate = 1.0, idle_exit = 0.0, leader_timeout = 5.0;
   std::size_t max_scans = 0, first_scan = 0;
-  cli.add_option("--domain", domain, "DDS domain id (0-232)")->capture_default_str();
-  cli.add_option("--profile", profile,
-                 "Fast DDS XML profile (deploy/fastdds/*.xml); default: Fast DDS defaults");
-  cli.add_option("--secure", secure_dir,
-                 "DDS Security: directory with this program's certificates and signed "
-                 "governance/permissions (deploy/security/make-fleet-certs.sh, docs/security.md)");
+  app::add_dds_flags(cli, domain, profile, secure_dir);
   cli.add_option("--map-id", map_id, "map to follow (default: the first one seen)");
   cli.add_option("--save-map", save_dir, "directory to save the map into (at exit, SIGUSR1)");
   cli.add_flag("--exit-when-complete", exit_when_complete,

@@ -18,6 +18,7 @@
 #include <thread>
 #include <vector>
 
+#include "app/dds_flags.hpp"
 #include "app/param_table.hpp"
 #include "app/slam_params.hpp"
 #include "app/slam_run.hpp"
@@ -146,12 +147,7 @@ int main(int argc, char** argv) {
                "start from the paper's exact configuration (previous-pose prediction, no "
                "extensions) before applying --config and the flags below");
   auto* dds = cli.add_option_group("DDS", "Map sharing (without --offline)");
-  dds->add_option("--domain", o.domain, "DDS domain id (0-232)")->capture_default_str();
-  dds->add_option("--profile", o.profile,
-                  "Fast DDS XML profile (deploy/fastdds/*.xml); default: Fast DDS defaults");
-  dds->add_option("--secure", o.secure,
-                  "DDS Security: directory with this program's certificates and signed "
-                  "governance/permissions (deploy/security/make-fleet-certs.sh, docs/security.md)");
+  app::add_dds_flags(*dds, o.domain, o.profile, o.secure);
   dds->add_option("--map-id", o.map_id, "name of the shared map")->capture_default_str();
   dds->add_option("--epoch", o.epoch, "map epoch (0 = start time in seconds: a new map)")
       ->capture_default_str();

@@ -25,6 +25,7 @@
 #include <thread>
 #include <vector>
 
+#include "app/dds_flags.hpp"
 #include "esfleet/dds/map_convert.hpp"
 #include "esfleet/dds/node.hpp"
 #include "esfleet/dds/writer.hpp"
@@ -212,12 +213,7 @@ std::optional<int> parse(int argc, char** argv, SimOptions& o) {
                  "stamp (s) of sim time 0; default: the wall clock at start, whole seconds");
   cli.add_option("--duration", o.duration, "seconds of sim time; 0 = until SIGINT/SIGTERM")
       ->capture_default_str();
-  cli.add_option("--domain", o.domain, "DDS domain id (0-232)")->capture_default_str();
-  cli.add_option("--profile", o.profile,
-                 "Fast DDS XML profile (deploy/fastdds/*.xml); default: Fast DDS defaults");
-  cli.add_option("--secure", o.secure,
-                 "DDS Security: directory with this program's certificates and signed "
-                 "governance/permissions (deploy/security/make-fleet-certs.sh, docs/security.md)");
+  esfleet::app::add_dds_flags(cli, o.domain, o.profile, o.secure);
   cli.add_option("--wait-subscribers", o.wait_subscribers,
                  "before the first tick, wait until N scan readers are matched (summed over "
                  "the robots: a reader of every robot counts once per robot)")

@@ -30,6 +30,7 @@
 #include <thread>
 #include <vector>
 
+#include "app/dds_flags.hpp"
 #include "esfleet/core/carmen_reader.hpp"
 #include "esfleet/dds/map_convert.hpp"
 #include "esfleet/dds/node.hpp"
@@ -129,12 +130,7 @@ int main(int argc, char** argv) {
                  "speed: 1 = as recorded, 2 = twice as fast, 0 = as fast as the readers "
                  "acknowledge")
       ->capture_default_str();
-  cli.add_option("--domain", o.domain, "DDS domain id (0-232)")->capture_default_str();
-  cli.add_option("--profile", o.profile,
-                 "Fast DDS XML profile (deploy/fastdds/*.xml); default: Fast DDS defaults");
-  cli.add_option("--secure", o.secure,
-                 "DDS Security: directory with this program's certificates and signed "
-                 "governance/permissions (deploy/security/make-fleet-certs.sh, docs/security.md)");
+  esfleet::app::add_dds_flags(cli, o.domain, o.profile, o.secure);
   cli.add_option("--first-scan", o.first_scan,
                  "start at this scan of the log (counted from 0, before --max-scans applies)")
       ->capture_default_str();
