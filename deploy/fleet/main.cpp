@@ -351,6 +351,15 @@ int main(int argc, char** argv) {
   leader.name = "leader";
   sim.name = "sim";
   std::vector<Child> followers(static_cast<std::size_t>(robots));
+  // Named and registered up front: the status table and the summary cover every robot, also
+  // when the run stops before the followers were started.
+  for (int k = 1; k <= robots; ++k) {
+    Child& f = followers[static_cast<std::size_t>(k - 1)];
+    f.name = "robot-" + std::to_string(k);
+    f.log = out_dir + "/" + f.name + ".log";
+    monitor.add_robot(f.name);
+  }
+  std::string failure;  ///< why the run ended early; empty = it ran as asked
   const auto start = Clock::now();
   auto now_s = [&] { return std::chrono::duration<double>(Clock::now() - start).count(); };
   try {
@@ -363,6 +372,7 @@ int main(int argc, char** argv) {
         leader.log);
   } catch (const std::exception& e) {
     spdlog::error("{}", e.what());
+    failure = e.what();
     g_stop.store(true);
   }
   if (wait_map) {
@@ -386,6 +396,10 @@ int main(int argc, char** argv) {
                       leader.exit_code, leader.log);
         g_stop.store(true);
       }
+      if (duration > 0 && now_s() >= duration) {
+        spdlog::error("--duration {} s passed before the leader's map was complete", duration);
+        g_stop.store(true);
+      }
       if (Clock::now() - last > std::chrono::seconds(5)) {
         last = Clock::now();
         spdlog::info("leader mapping: {} scans, {} tiles", m ? m->scans() : 0,
@@ -398,9 +412,6 @@ int main(int argc, char** argv) {
     if (g_stop.load()) throw std::runtime_error("stopped before the followers started");
     for (int k = 1; k <= robots; ++k) {
       Child& f = followers[static_cast<std::size_t>(k - 1)];
-      f.name = "robot-" + std::to_string(k);
-      f.log = out_dir + "/" + f.name + ".log";
-      monitor.add_robot(f.name);
       f.pid = spawn(
           with(with({bin_dir + "/esfleet-follower", "--scan-topic", f.name, "--robot-id", f.name,
                      "--seed", std::to_string(seed + k), "--save-map", out_dir + "/" + f.name,
@@ -418,6 +429,7 @@ int main(int argc, char** argv) {
         sim.log);
   } catch (const std::exception& e) {
     spdlog::error("{}", e.what());
+    failure = e.what();
     g_stop.store(true);
   }
   spdlog::info("fleet of {} robots on domain {} ({}); logs and maps in {}{}", robots, domain,
@@ -469,7 +481,6 @@ int main(int argc, char** argv) {
   double window_start_s = -1.0;
   auto last_sample = Clock::now();
   auto last_draw = Clock::now();
-  std::string failure;
   while (!g_stop.load()) {
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
     std::vector<fleet::PoseSample> p;
@@ -587,7 +598,8 @@ int main(int argc, char** argv) {
         {"tracking_lag_ms_p95", lag_p95},
         {"tracking_cpu_ms_median", loc.value("tracking_cpu_ms_median", 0.0)},
         {"realtime", rt},
-        {"exit_code", f.exit_code},
+        {"started", f.pid > 0},
+        {"exit_code", f.pid > 0 ? f.exit_code : -1},
     };
     localised += r.localised_s ? 1 : 0;
     realtime += rt ? 1 : 0;
