@@ -43,6 +43,9 @@ void add_localise_bench_options(CLI::App& cmd, LocaliseBenchOptions& o) {
       ->capture_default_str();
   cmd.add_option("--output", o.output, "JSON file for the figures")->capture_default_str();
   cmd.add_flag("--json", o.json, "last line of stdout is the JSON object");
+  cmd.add_option("--trace", o.trace,
+                 "write a per-scan trace of every failed start to this file (the leading "
+                 "hypothesis, the one nearest the reference, their scores and errors)");
   app::add_slam_params(o.params, &o.config.slam, &o.reader);
   app::add_localise_params(o.params, &o.config);
   o.params.bind(cmd, "Parameters (leader SLAM and follower)");
@@ -83,18 +86,73 @@ struct StartResult {
   /// How well the map agrees with the start scan at its reference pose (FitnessValue
   /// agreement): low where the map is wrong or the place changed, not the localiser's doing.
   float reference_agreement = 0.0f;
+  /// Case b: distance from the start's reference to the nearest pose of the leader's path
+  /// while it made the half map (how far the leader itself had been from here); -1 in case a.
+  double path_distance = -1.0;
+  std::string trace;  ///< per-scan lines (only with --trace)
 };
 
 /// Starts whose scan agrees with the map at the reference at least this much count as
 /// "the map agrees" in the summary.
 constexpr float kMapAgrees = 0.7f;
+/// Case b starts within this distance of the leader's first-half path count as "the leader
+/// drove here" in the summary (the rest lie in places the half map saw from a distance).
+constexpr double kNearPath = 1.0;
 
 /// The reference pose of scan i in the frame of the map being localised in.
 using Reference = std::function<Pose2(std::size_t)>;
 
+/// One trace line: the leading hypothesis and the one nearest the reference.
+std::string trace_line(std::size_t scan, const LocalizerStep& step, const Localizer& loc,
+                       const Pose2& truth) {
+  auto err = [&](const Pose2& p) {
+    return std::pair{std::hypot(p.x - truth.x, p.y - truth.y),
+                     rad_to_deg(std::abs(normalize_angle(p.theta - truth.theta)))};
+  };
+  const auto hyps = loc.hypotheses();
+  char buf[512];
+  const auto [le, lt] = err(step.pose);
+  int n = std::snprintf(buf, sizeof buf,
+                        "  scan %zu %s%s hyps %zu lead err %.2f m %.1f deg agr %.2f known %.2f "
+                        "ev %.3f",
+                        scan, to_string(step.state), step.global_search ? " G" : "",
+                        step.hypotheses, le, lt, static_cast<double>(step.value.agreement()),
+                        step.value.n_points ? double(step.value.n_known) / step.value.n_points : 0.0,
+                        static_cast<double>(step.score));
+  float top = 0.0f, second = 0.0f;
+  const Localizer::HypothesisView* near = nullptr;
+  double near_d = 1e9;
+  for (const auto& h : hyps) {
+    if (h.score > top) {
+      second = top;
+      top = h.score;
+    } else {
+      second = std::max(second, h.score);
+    }
+    const auto [d, t] = err(h.pose);
+    if (d + t / 10.0 < near_d) {
+      near_d = d + t / 10.0;
+      near = &h;
+    }
+  }
+  n += std::snprintf(buf + n, sizeof buf - static_cast<std::size_t>(n), " rival %.2f",
+                     top > 0.0f ? static_cast<double>(second / top) : 0.0);
+  if (near != nullptr) {
+    const auto [d, t] = err(near->pose);
+    std::snprintf(buf + n, sizeof buf - static_cast<std::size_t>(n),
+                  " | nearest err %.2f m %.1f deg score %.3f streak %d agr %.2f known %.2f "
+                  "travel %.2f",
+                  d, t, static_cast<double>(near->score), near->good_streak,
+                  static_cast<double>(near->value.agreement()),
+                  near->value.n_points ? double(near->value.n_known) / near->value.n_points : 0.0,
+                  near->travel);
+  }
+  return std::string(buf) + "\n";
+}
+
 StartResult run_start(const LocalizerConfig& config, const GridMap& map,
                       const std::vector<LaserScan>& scans, const Reference& ref, std::size_t start,
-                      int budget) {
+                      int budget, bool trace) {
   Localizer loc(config);
   StartResult r;
   r.start = start;
@@ -103,6 +161,7 @@ StartResult run_start(const LocalizerConfig& config, const GridMap& map,
     const LocalizerStep step = loc.process(map, scans[j]);
     cpu_ms += step.cpu_ms;
     ++r.scans;
+    if (trace) r.trace += trace_line(j, step, loc, ref(j));
     if (step.declared) {
       r.declared = true;
       const Pose2 truth = ref(j);
@@ -132,11 +191,16 @@ void parallel_for(int threads, std::size_t n, F&& f) {
 nlohmann::json summarize_case(const std::vector<StartResult>& results, std::size_t skipped) {
   std::vector<double> cpu, log_s, scans;
   std::size_t ok = 0, wrong = 0, agree = 0, agree_ok = 0, agree_wrong = 0;
+  std::size_t near_path = 0, near_ok = 0, near_wrong = 0;
   nlohmann::json failures = nlohmann::json::array();
   for (const StartResult& r : results) {
     if (r.reference_agreement >= kMapAgrees) {
       ++agree;
       if (r.declared) (r.correct ? agree_ok : agree_wrong)++;
+    }
+    if (r.path_distance >= 0.0 && r.path_distance <= kNearPath) {
+      ++near_path;
+      if (r.declared) (r.correct ? near_ok : near_wrong)++;
     }
     if (r.declared) {
       cpu.push_back(r.cpu_s);
@@ -150,7 +214,8 @@ nlohmann::json summarize_case(const std::vector<StartResult>& results, std::size
                           {"error_m", r.error_xy},
                           {"error_deg", r.error_theta_deg},
                           {"scans", r.scans},
-                          {"reference_agreement", r.reference_agreement}});
+                          {"reference_agreement", r.reference_agreement},
+                          {"leader_path_distance_m", r.path_distance}});
     }
   }
   const double n = static_cast<double>(std::max<std::size_t>(1, results.size()));
@@ -172,6 +237,12 @@ nlohmann::json summarize_case(const std::vector<StartResult>& results, std::size
            static_cast<double>(agree_ok) / static_cast<double>(std::max<std::size_t>(1, agree))},
           {"wrong_rate_where_map_agrees",
            static_cast<double>(agree_wrong) / static_cast<double>(std::max<std::size_t>(1, agree))},
+          {"starts_near_leader_path", near_path},
+          {"success_rate_near_leader_path",
+           static_cast<double>(near_ok) / static_cast<double>(std::max<std::size_t>(1, near_path))},
+          {"wrong_rate_near_leader_path",
+           static_cast<double>(near_wrong) /
+               static_cast<double>(std::max<std::size_t>(1, near_path))},
           {"failures", failures}};
 }
 
@@ -191,6 +262,14 @@ void print_case(const char* name, const nlohmann::json& j) {
       static_cast<double>(kMapAgrees), j["starts_where_map_agrees"].get<int>(),
       100.0 * j["success_rate_where_map_agrees"].get<double>(),
       100.0 * j["wrong_rate_where_map_agrees"].get<double>());
+  if (j["starts_near_leader_path"].get<int>() > 0) {
+    std::printf(
+        "  where the leader drove within %.1f m while making the map: %d starts, success %.1f "
+        "%%, wrong %.1f %%\n",
+        kNearPath, j["starts_near_leader_path"].get<int>(),
+        100.0 * j["success_rate_near_leader_path"].get<double>(),
+        100.0 * j["wrong_rate_near_leader_path"].get<double>());
+  }
   std::fflush(stdout);
 }
 
@@ -262,6 +341,7 @@ int run_localise_bench(LocaliseBenchOptions& o) {
   out["tolerance"] = {{"xy_m", kTolXy}, {"theta_deg", kTolThetaDeg}};
   out["search"] = o.config.global == GlobalSearch::kEs ? "es" : "grid";
   std::vector<StartResult> pooled;
+  std::string trace_text;
   // Each part draws from its own stream, so a case's starts do not depend on which other
   // cases run (--case a, b or both give the same starts for a case).
   auto run_case = [&](const char* name, const GridMap& map, std::size_t lo,
@@ -297,7 +377,7 @@ int run_localise_bench(LocaliseBenchOptions& o) {
     parallel_for(o.threads, starts.size(), [&](std::size_t i) {
       LocalizerConfig c = o.config;
       c.seed = o.seed * 1000003u + i;
-      results[i] = run_start(c, map, scans, reference, starts[i], o.budget);
+      results[i] = run_start(c, map, scans, reference, starts[i], o.budget, !o.trace.empty());
       {
         const ScanPoints pts =
             prepare_scan(scans[starts[i]], o.config.slam.min_range, o.config.slam.max_range);
@@ -305,6 +385,15 @@ int run_localise_bench(LocaliseBenchOptions& o) {
         fo.interpolate = true;
         results[i].reference_agreement =
             FitnessEvaluator(map, pts, fo).evaluate(reference(starts[i])).agreement();
+      }
+      if (&map == &*half_map) {
+        // Evaluation only: how far the leader had been from this start when it made the map.
+        const Pose2 at = ref[starts[i]].pose;
+        double best = 1e18;
+        for (std::size_t k = 0; k < half; ++k) {
+          best = std::min(best, std::hypot(ref[k].pose.x - at.x, ref[k].pose.y - at.y));
+        }
+        results[i].path_distance = best;
       }
       const int d = ++done;
       if (d % 10 == 0) {
@@ -319,6 +408,14 @@ int run_localise_bench(LocaliseBenchOptions& o) {
                      results[i].error_theta_deg);
       }
     });
+    if (!o.trace.empty()) {
+      for (const StartResult& r : results) {
+        if (r.correct) continue;
+        trace_text += std::string("case ") + name + " start " + std::to_string(r.start) +
+                      (r.declared ? " WRONG" : " undeclared") + " reference_agreement " +
+                      std::to_string(r.reference_agreement) + "\n" + r.trace;
+      }
+    }
     nlohmann::json j = summarize_case(results, skipped);
     print_case(name, j);
     out[std::string("case_") + name] = j;
@@ -332,6 +429,14 @@ int run_localise_bench(LocaliseBenchOptions& o) {
     std::printf(
         "case b: %zu references re-aligned by more than 0.1 m to the half map (at most %.2f m)\n",
         realigned, realign_max);
+  }
+  if (!o.trace.empty()) {
+    try {
+      write_file_atomically(o.trace, trace_text);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "esfleet-bench localise: %s\n", e.what());
+      return 1;
+    }
   }
   const nlohmann::json all = summarize_case(pooled, 0);
   for (const char* k : {"success_rate", "wrong_rate", "undeclared_rate", "median_s", "p95_s",

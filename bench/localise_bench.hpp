@@ -20,6 +20,8 @@ struct LocaliseBenchOptions {
   double time_offset = 0.0;
   std::string output = "esfleet-bench-localise.json";
   bool json = false;
+  /// Per-scan trace of every start that did not declare the right pose (diagnostics).
+  std::string trace;
   LocalizerConfig config;
   CarmenReaderOptions reader;
   app::ParamTable params;
