@@ -43,8 +43,6 @@ void LocalizerConfig::validate() const {
   check(es_restarts >= 1 && es_iterations >= 1,
         "localise.es_restarts and es_iterations must be >= 1");
   check(confirm_scans >= 1, "localise.confirm_scans must be >= 1");
-  check(unknown_likelihood > 0.0 && unknown_likelihood < 1.0,
-        "localise.unknown_likelihood must be in (0, 1)");
   check(min_agreement >= 0.0 && min_agreement <= 1.0, "localise.min_agreement must be in [0, 1]");
   check(min_known >= 0.0 && min_known <= 1.0, "localise.min_known must be in [0, 1]");
   check(min_travel >= 0.0 && min_turn_deg >= 0.0, "localise.min_travel and min_turn must be >= 0");
@@ -66,38 +64,6 @@ void LocalizerConfig::validate() const {
 
 float evidence(const FitnessValue& v) {
   return v.n_points > 0 ? static_cast<float>(v.n_hit) / static_cast<float>(v.n_points) : 0.0f;
-}
-
-float count_likelihood(const GridMap& map, const ScanPoints& points, const Pose2& pose,
-                       double unknown) {
-  if (points.size() == 0) return 0.0f;
-  const double c = std::cos(pose.theta), s = std::sin(pose.theta);
-  const double log_unknown = std::log(unknown);
-  const int edge = map.tile_edge();
-  double sum = 0.0;
-  TileKey last_key{};
-  const Tile* last = nullptr;
-  bool have_last = false;
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    const double wx = pose.x + c * points.x[i] - s * points.y[i];
-    const double wy = pose.y + s * points.x[i] + c * points.y[i];
-    const CellIndex ci = map.cell_of(wx, wy);
-    const TileKey k = map.tile_of(ci);
-    if (!have_last || !(k == last_key)) {
-      last = map.find_tile(k);
-      last_key = k;
-      have_last = true;
-    }
-    std::uint64_t h = 0, e = 0;
-    if (last != nullptr) {
-      const auto j = static_cast<std::size_t>((ci.y - k.ty * edge) * edge + (ci.x - k.tx * edge));
-      h = last->hit[j];
-      e = last->err[j];
-    }
-    sum += h + e == 0 ? log_unknown
-                      : std::log((static_cast<double>(h) + 0.5) / (static_cast<double>(h + e) + 1.0));
-  }
-  return static_cast<float>(std::exp(sum / static_cast<double>(points.size())));
 }
 
 EvidencePose best_evidence_near(const FitnessEvaluator& eval, const Pose2& centre, double half_xy,
@@ -360,21 +326,14 @@ std::vector<Pose2> Localizer::es_candidates(const GridMap& map, const ScanPoints
   return out;
 }
 
-float Localizer::hypothesis_score(const GridMap& map, const ScanPoints& points, const Pose2& pose,
-                                  const FitnessValue& v) const {
-  return config_.score == HypothesisScore::kLikelihood
-             ? count_likelihood(map, points, pose, config_.unknown_likelihood)
-             : evidence(v);
-}
-
-void Localizer::score_scan(Hypothesis& h, const FitnessValue& v, float score, const Pose2& before,
+void Localizer::score_scan(Hypothesis& h, const FitnessValue& v, const Pose2& before,
                            const Pose2& now) {
   h.value = v;
   ++h.scans;
   h.travel += std::hypot(now.x - before.x, now.y - before.y);
   h.turn += std::abs(normalize_angle(now.theta - before.theta));
   h.good_streak = good(v) ? h.good_streak + 1 : 0;
-  h.recent.push_back(score);
+  h.recent.push_back(evidence(v));
   const auto window = static_cast<std::size_t>(config_.confirm_scans);
   if (h.recent.size() > window) h.recent.erase(h.recent.begin());
   float sum = 0.0f;
@@ -394,8 +353,7 @@ void Localizer::add_hypotheses(const std::vector<Pose2>& poses, const GridMap& m
     h.motion.last = {scan.stamp, p};
     h.motion.odometry = scan.odometry;
     h.origin = p;
-    const FitnessValue v = eval.evaluate(p);
-    score_scan(h, v, hypothesis_score(map, points, p, v), p, p);
+    score_scan(h, eval.evaluate(p), p, p);
     pool_.push_back(std::move(h));
   }
 }
@@ -411,8 +369,7 @@ void Localizer::localise(const GridMap& map, const ScanPoints& points, const Las
     h.motion.previous = h.motion.last;
     h.motion.last = {scan.stamp, t.result.pose};
     if (scan.odometry) h.motion.odometry = scan.odometry;
-    score_scan(h, t.result.value, hypothesis_score(map, points, t.result.pose, t.result.value),
-               before, t.result.pose);
+    score_scan(h, t.result.value, before, t.result.pose);
   }
   // Merge hypotheses that converged onto one pose; drop the clearly worse.
   std::stable_sort(pool_.begin(), pool_.end(),
@@ -488,7 +445,7 @@ void Localizer::localise(const GridMap& map, const ScanPoints& points, const Las
     // missed). Always the global grid search, whatever the hint or the search mode: it is
     // the safety net against a wrong confident pose.
     const Pose2 lead_pose = h.motion.last.pose;
-    const float lead_now = hypothesis_score(map, points, lead_pose, h.value);
+    const float lead_now = evidence(h.value);
     const std::vector<Pose2> fresh =
         global_candidates(map, points, /*use_hint=*/false, GlobalSearch::kGrid);
     step.global_search = true;
@@ -498,8 +455,7 @@ void Localizer::localise(const GridMap& map, const ScanPoints& points, const Las
       // A rival is anything outside the tolerance of a right pose: a look-alike 0.8 m and
       // 10 deg away (CSAIL) must stop the declaration as much as one across the map.
       if (same_place(p, lead_pose, kRivalXy, kRivalTheta)) continue;
-      if (hypothesis_score(map, points, p, fine.evaluate(p)) >=
-          static_cast<float>(config_.verify_ambiguity) * lead_now) {
+      if (evidence(fine.evaluate(p)) >= static_cast<float>(config_.verify_ambiguity) * lead_now) {
         rivals.push_back(p);
       }
     }

@@ -30,19 +30,6 @@ void add_localise_params(ParamTable& t, LocalizerConfig* c) {
   t.add_int("localise_es_iterations", &c->es_iterations, "es search: iterations per ES run");
   t.add_int("localise_confirm_scans", &c->confirm_scans,
             "consecutive well-matching scans before a pose is declared");
-  t.add_choice(
-      "localise_score", {"evidence", "likelihood"},
-      [c](const std::string& v) {
-        c->score = v == "likelihood" ? HypothesisScore::kLikelihood : HypothesisScore::kEvidence;
-      },
-      [c] {
-        return std::string(c->score == HypothesisScore::kLikelihood ? "likelihood" : "evidence");
-      },
-      "how hypotheses are compared: evidence = share of end points on occupied cells; "
-      "likelihood = geometric mean of the end point cells' occupancy from the map's counts "
-      "(a contradiction weighs by how often the map saw the cell free)");
-  t.add_double("localise_unknown_likelihood", &c->unknown_likelihood,
-               "likelihood score: occupancy probability of an end point on an unobserved cell");
   t.add_double("localise_min_agreement", &c->min_agreement,
                "a well-matching scan puts at least this share of its known end points on "
                "occupied cells");

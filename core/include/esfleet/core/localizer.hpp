@@ -46,12 +46,6 @@ enum class GlobalSearch : std::uint8_t {
   kEs,    ///< the ES alone from a population spread over free space, with restarts (paper)
 };
 
-/// How hypotheses are scored and compared (lead, rivals, pruning, the final check).
-enum class HypothesisScore : std::uint8_t {
-  kEvidence,    ///< evidence(): share of end points on cells with hit > 0
-  kLikelihood,  ///< count_likelihood(): geometric mean of the cells' occupancy posteriors
-};
-
 /// A pose guess: search within `radius` metres and `angle_deg` degrees of it.
 struct PoseHint {
   Pose2 pose;
@@ -84,11 +78,6 @@ struct LocalizerConfig {
 
   // --- declaring a pose ---
   int confirm_scans = 4;       ///< consecutive good scans of the leading hypothesis
-  /// How hypotheses are compared (mean over their last confirm_scans scans); kLikelihood was
-  /// measured and is not the default (docs/localisation.md).
-  HypothesisScore score = HypothesisScore::kEvidence;
-  /// kLikelihood: the occupancy probability given to an end point on an unobserved cell.
-  double unknown_likelihood = 0.3;
   double min_agreement = 0.8;  ///< good scan: FitnessValue::agreement at least this
   double min_known = 0.5;      ///< ... and this share of end points on known cells
   double min_travel = 0.3;     ///< metres moved (or min_turn turned) since the hypothesis began
@@ -177,11 +166,7 @@ class Localizer {
                                    double theta_span);
   void add_hypotheses(const std::vector<Pose2>& poses, const GridMap& map, const ScanPoints& points,
                       const LaserScan& scan);
-  void score_scan(Hypothesis& h, const FitnessValue& v, float score, const Pose2& before,
-                  const Pose2& now);
-  /// The hypothesis score of `pose` (config_.score); `v` is its fitness value.
-  float hypothesis_score(const GridMap& map, const ScanPoints& points, const Pose2& pose,
-                         const FitnessValue& v) const;
+  void score_scan(Hypothesis& h, const FitnessValue& v, const Pose2& before, const Pose2& now);
   bool good(const FitnessValue& v) const;
   /// The full-resolution evaluator hypotheses are scored with (the SLAM's fitness options).
   FitnessEvaluator fine_evaluator(const GridMap& map, const ScanPoints& points) const;
@@ -206,15 +191,6 @@ class Localizer {
 /// hit > 0 (agreement times known share), in [0, 1]. Unlike the fitness it counts end points
 /// in unknown or free space against the pose, which tells look-alike places apart.
 float evidence(const FitnessValue& v);
-
-/// A pose's likelihood from the map's counts: the geometric mean over the end points of
-/// (hit + 1/2) / (hit + err + 1) of the end point's cell (the posterior mean occupancy under a
-/// Jeffreys prior; `unknown` where the cell was never observed), in (0, 1]. Unlike evidence()
-/// it weighs a contradiction by how often the map saw that cell free: an end point on a
-/// corridor floor crossed by hundreds of beams counts far more against a pose than one on a
-/// cell of a room seen once through a door (Freiburg 079, map of the first half).
-float count_likelihood(const GridMap& map, const ScanPoints& points, const Pose2& pose,
-                       double unknown);
 
 /// The pose of highest evidence() on a grid around `centre`: positions within +-half_xy in
 /// steps of step_xy, headings within +-half_turn_deg in 1-degree steps; among equals the first
