@@ -103,7 +103,51 @@ struct StartResult {
   /// while it made the half map (how far the leader itself had been from here); -1 in case a.
   double path_distance = -1.0;
   std::string trace;  ///< per-scan lines (only with --trace)
+  /// --trace: the grid searches of this start, and the stage where the reference fell out
+  /// (not among the coarse poses kept, ranked below the candidates, or a candidate).
+  int searches = 0, lost_coarse = 0, lost_ranking = 0, found = 0;
 };
+
+/// --trace: a search pose is "at the reference" within this (the candidates' own spacing is
+/// 0.5 m and 10 deg; the ES refinement and the hypotheses pull in from there).
+constexpr double kSearchNearXy = 1.0;
+constexpr double kSearchNearThetaDeg = 10.0;
+
+/// Index of the first pose within kSearchNear* of `truth`, -1 if none.
+int rank_near(const std::vector<Pose2>& poses, const Pose2& truth) {
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    if (within(poses[i], truth, kSearchNearXy, kSearchNearThetaDeg)) return static_cast<int>(i);
+  }
+  return -1;
+}
+
+/// --trace: where the reference stood in the last grid search; counts it into `r`.
+std::string trace_search(const Localizer::SearchStages& st, const Pose2& truth, StartResult& r) {
+  const int coarse = rank_near(st.coarse, truth);
+  const int ranked = rank_near(st.ranked, truth);
+  const int cand = rank_near(st.candidates, truth);
+  ++r.searches;
+  if (cand >= 0) {
+    ++r.found;
+  } else if (coarse < 0) {
+    ++r.lost_coarse;
+  } else {
+    ++r.lost_ranking;
+  }
+  const std::size_t nc = st.candidates.size();
+  const double last = nc > 0 && st.ranked_evidence.size() >= nc
+                          ? static_cast<double>(st.ranked_evidence[nc - 1])
+                          : 0.0;
+  char buf[256];
+  std::snprintf(
+      buf, sizeof buf,
+      "    search: reference at coarse rank %d of %zu, re-ranked %d (evidence %.3f; "
+      "last candidate %.3f), candidate %d\n",
+      coarse, st.coarse.size(), ranked,
+      ranked >= 0 ? static_cast<double>(st.ranked_evidence[static_cast<std::size_t>(ranked)]) : 0.0,
+      last, cand);
+  return buf;
+}
 
 /// Starts whose scan agrees with the map at the reference at least this much count as
 /// "the map agrees" in the summary.
@@ -162,6 +206,7 @@ StartResult run_start(const LocalizerConfig& config, const GridMap& map,
                       const std::vector<LaserScan>& scans, const Reference& ref, std::size_t start,
                       int budget, bool trace) {
   Localizer loc(config);
+  loc.record_search_stages(trace);
   StartResult r;
   r.start = start;
   double cpu_ms = 0.0;
@@ -169,7 +214,13 @@ StartResult run_start(const LocalizerConfig& config, const GridMap& map,
     const LocalizerStep step = loc.process(map, scans[j]);
     cpu_ms += step.cpu_ms;
     ++r.scans;
-    if (trace) r.trace += trace_line(j, step, loc, ref(j));
+    if (trace) {
+      r.trace += trace_line(j, step, loc, ref(j));
+      // (the ES search, --localise-search es, records no stages)
+      if (step.global_search && !loc.last_search().coarse.empty()) {
+        r.trace += trace_search(loc.last_search(), ref(j), r);
+      }
+    }
     if (step.declared) {
       r.declared = true;
       const Pose2 truth = ref(j);
@@ -414,6 +465,18 @@ int run_localise_bench(LocaliseBenchOptions& o) {
       }
     });
     if (!o.trace.empty()) {
+      int searches = 0, lost_coarse = 0, lost_ranking = 0, found = 0;
+      for (const StartResult& r : results) {
+        if (r.correct) continue;
+        searches += r.searches;
+        lost_coarse += r.lost_coarse;
+        lost_ranking += r.lost_ranking;
+        found += r.found;
+      }
+      std::printf(
+          "case %s trace: %d grid searches in the failed starts; the reference was among the "
+          "candidates in %d, ranked below them in %d, not among the coarse poses in %d\n",
+          name, searches, found, lost_ranking, lost_coarse);
       for (const StartResult& r : results) {
         if (r.correct) continue;
         trace_text += std::string("case ") + name + " start " + std::to_string(r.start) +

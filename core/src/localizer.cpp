@@ -171,6 +171,7 @@ std::vector<Pose2> Localizer::global_candidates(const GridMap& map, const ScanPo
                                                    : std::atan2(coarse_cell, median_range(points));
   step_theta = std::clamp(step_theta, deg_to_rad(0.5), deg_to_rad(5.0));
   const PoseHint* hint = use_hint && config_.hint ? &*config_.hint : nullptr;
+  if (record_stages_) stages_ = {};
 
   // Sample positions: cell centres on a step_xy grid over known free cells.
   const int stride = std::max(1, static_cast<int>(std::lround(step_xy / map.cell_size())));
@@ -275,6 +276,14 @@ std::vector<Pose2> Localizer::grid_candidates(const GridMap& map, const ScanPoin
     if (near) continue;
     kept.push_back(c.pose);
     if (static_cast<int>(kept.size()) >= config_.candidates) break;
+  }
+  if (record_stages_) {
+    for (const Scored& c : coarse_kept) stages_.coarse.push_back(c.pose);
+    for (const Scored& c : ranked) {
+      stages_.ranked.push_back(c.pose);
+      stages_.ranked_evidence.push_back(c.score);
+    }
+    stages_.candidates = kept;
   }
   // The ES refines each kept candidate at full resolution.
   const FitnessEvaluator fine = fine_evaluator(map, points);

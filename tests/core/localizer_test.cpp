@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <stdexcept>
@@ -105,6 +106,33 @@ TEST(Localizer, TheEsSearchOfThePaperAlsoLocalises) {
   const Outcome r = localise(loc, map, world, drive({9.0, 6.0, -2.5}, 60, 0.1));
   ASSERT_GE(r.declared_at, 0) << "seed 5: no pose declared";
   EXPECT_TRUE(near(r.declared, r.truth, 0.1, 3.0)) << "seed 5";
+}
+
+TEST(Localizer, RecordsTheStagesOfItsGridSearchOnlyWhenAsked) {
+  const auto world = asymmetric_room();
+  const GridMap map = map_of(world, 12, 8);
+  const Pose2 truth{2.0, 1.5, 0.3};
+  LocalizerConfig c;
+  c.seed = 2;
+  Localizer quiet(c);
+  ASSERT_TRUE(quiet.process(map, make_scan(world, truth)).global_search);
+  EXPECT_TRUE(quiet.last_search().coarse.empty());
+
+  Localizer loc(c);
+  loc.record_search_stages(true);
+  ASSERT_TRUE(loc.process(map, make_scan(world, truth)).global_search);
+  const Localizer::SearchStages& st = loc.last_search();
+  ASSERT_FALSE(st.candidates.empty());
+  EXPECT_LE(st.candidates.size(), static_cast<std::size_t>(c.candidates));
+  EXPECT_LE(st.coarse.size(), static_cast<std::size_t>(c.coarse_keep));
+  ASSERT_EQ(st.ranked.size(), st.coarse.size());
+  ASSERT_EQ(st.ranked_evidence.size(), st.ranked.size());
+  EXPECT_TRUE(std::is_sorted(st.ranked_evidence.rbegin(), st.ranked_evidence.rend()));
+  // An asymmetric room seen from inside: the best re-ranked pose is the truth.
+  EXPECT_TRUE(near(st.ranked.front(), truth, 0.3, 5.0))
+      << "(" << st.ranked.front().x << ", " << st.ranked.front().y << ", "
+      << st.ranked.front().theta << ")";
+  EXPECT_TRUE(near(st.candidates.front(), truth, 0.3, 5.0));
 }
 
 TEST(Localizer, TracksAfterDeclaringAndKeepsTracking) {

@@ -143,6 +143,19 @@ class Localizer {
   };
   std::vector<HypothesisView> hypotheses() const;
 
+  /// The stages of the last grid search (diagnostics, filled only after
+  /// record_search_stages(true)): the distinct coarse poses kept, the same re-ranked at
+  /// mid_level (best first, with their evidence) and the candidates refined. The ES search
+  /// (GlobalSearch::kEs) leaves them empty.
+  struct SearchStages {
+    std::vector<Pose2> coarse;
+    std::vector<Pose2> ranked;
+    std::vector<float> ranked_evidence;
+    std::vector<Pose2> candidates;
+  };
+  void record_search_stages(bool on) { record_stages_ = on; }
+  const SearchStages& last_search() const { return stages_; }
+
  private:
   struct Hypothesis {
     MotionState motion;
@@ -185,6 +198,8 @@ class Localizer {
   int searching_scans_ = 0;  ///< scans since localising (re)started
   Hypothesis tracked_;
   int bad_streak_ = 0;
+  bool record_stages_ = false;
+  SearchStages stages_;
 };
 
 /// The localiser's evidence for a pose: the share of all end points that fall on cells with
