@@ -40,9 +40,6 @@ void LocalizerConfig::validate() const {
         "localise.mid_level must be in [0, localise.coarse_level]");
   check(distinct_xy > 0.0 && distinct_theta_deg > 0.0,
         "localise.distinct_xy and distinct_theta must be > 0");
-  check(search_scans >= 1 && search_scans <= 50, "localise.search_scans must be in [1, 50]");
-  check(search_spacing >= 0.0 && search_spacing_deg >= 0.0,
-        "localise.search_spacing and search_spacing_deg must be >= 0");
   check(es_restarts >= 1 && es_iterations >= 1,
         "localise.es_restarts and es_iterations must be >= 1");
   check(confirm_scans >= 1, "localise.confirm_scans must be >= 1");
@@ -117,10 +114,6 @@ constexpr int kLocalCheckTurns = 3;
 constexpr float kLocalCheckMargin = 0.01f;
 constexpr double kLocalCheckMove = 0.1;
 
-/// The re-ranking of coarse poses uses at most about this many end points (a multi-scan cloud
-/// is strided; a single scan of up to 2 * kMidPoints beams is used whole).
-constexpr int kMidPoints = 400;
-
 /// Median range of the valid beams (for the heading step).
 double median_range(const ScanPoints& points) {
   if (points.range.empty()) return 5.0;
@@ -149,49 +142,6 @@ void Localizer::reset() {
   scans_since_search_ = 0;
   searching_scans_ = 0;
   bad_streak_ = 0;
-  local_.reset();
-  key_scans_.clear();
-}
-
-ScanPoints Localizer::search_cloud(const LaserScan& scan, const ScanPoints& points) {
-  if (config_.search_scans <= 1) return points;
-  if (!local_) {
-    SlamConfig c = config_.slam;
-    c.loop.enabled = false;
-    c.seed = config_.seed ^ 0x9e3779b97f4a7c15ULL;
-    local_ = std::make_unique<Slam>(c);
-    key_scans_.clear();
-  }
-  const Pose2 now = local_->process(scan).pose;
-  const bool far = key_scans_.empty() || [&] {
-    const Pose2& last = key_scans_.back().pose;
-    return std::hypot(now.x - last.x, now.y - last.y) >= config_.search_spacing ||
-           std::abs(normalize_angle(now.theta - last.theta)) >=
-               deg_to_rad(config_.search_spacing_deg);
-  }();
-  if (far) {
-    key_scans_.push_back({now, points});
-    while (static_cast<int>(key_scans_.size()) > config_.search_scans) key_scans_.pop_front();
-  }
-  ScanPoints cloud = points;
-  // Earlier key scans (not the current one) in the current scan's frame.
-  const double c = std::cos(now.theta), s = std::sin(now.theta);
-  for (std::size_t k = 0; k < key_scans_.size(); ++k) {
-    if (far && k + 1 == key_scans_.size()) break;  // that is this scan
-    if (!far && k == 0 && static_cast<int>(key_scans_.size()) >= config_.search_scans) continue;
-    const KeyScan& ks = key_scans_[k];
-    const double kc = std::cos(ks.pose.theta), ksn = std::sin(ks.pose.theta);
-    for (std::size_t i = 0; i < ks.points.size(); ++i) {
-      const double wx = ks.pose.x + kc * ks.points.x[i] - ksn * ks.points.y[i] - now.x;
-      const double wy = ks.pose.y + ksn * ks.points.x[i] + kc * ks.points.y[i] - now.y;
-      const auto x = static_cast<float>(c * wx + s * wy);
-      const auto y = static_cast<float>(-s * wx + c * wy);
-      cloud.x.push_back(x);
-      cloud.y.push_back(y);
-      cloud.range.push_back(std::hypot(x, y));
-    }
-  }
-  return cloud;
 }
 
 std::vector<Localizer::HypothesisView> Localizer::hypotheses() const {
@@ -298,7 +248,6 @@ std::vector<Pose2> Localizer::grid_candidates(const GridMap& map, const ScanPoin
   }
   FitnessOptions mid_options = slam_fitness_options(config_.slam, false);
   mid_options.level = std::min(config_.mid_level, map.pyramid_levels());
-  mid_options.stride = std::max(1, static_cast<int>(points.size()) / kMidPoints);
   const FitnessEvaluator mid(map, points, mid_options);
   const double mid_cell = map.cell_size() * static_cast<double>(1 << mid_options.level);
   const int nxy = std::max(1, static_cast<int>(std::lround(step_xy / mid_cell)));
@@ -421,7 +370,6 @@ void Localizer::add_hypotheses(const std::vector<Pose2>& poses, const GridMap& m
 void Localizer::localise(const GridMap& map, const ScanPoints& points, const LaserScan& scan,
                          LocalizerStep& step) {
   ++searching_scans_;
-  const ScanPoints cloud = search_cloud(scan, points);
   // Follow every hypothesis with the per-scan tracking step.
   for (Hypothesis& h : pool_) {
     const TrackResult t =
@@ -455,7 +403,7 @@ void Localizer::localise(const GridMap& map, const ScanPoints& points, const Las
   const bool any_good = std::any_of(pool_.begin(), pool_.end(),
                                     [](const Hypothesis& h) { return h.good_streak > 0; });
   if (pool_.empty() || (!any_good && scans_since_search_ >= config_.research_every)) {
-    add_hypotheses(global_candidates(map, cloud, use_hint, config_.global), map, points, scan);
+    add_hypotheses(global_candidates(map, points, use_hint, config_.global), map, points, scan);
     scans_since_search_ = 0;
     step.global_search = true;
   } else {
@@ -506,10 +454,9 @@ void Localizer::localise(const GridMap& map, const ScanPoints& points, const Las
     // missed). Always the global grid search, whatever the hint or the search mode: it is
     // the safety net against a wrong confident pose.
     const Pose2 lead_pose = h.motion.last.pose;
-    const FitnessEvaluator fine_cloud = fine_evaluator(map, cloud);
-    const float lead_now = evidence(fine_cloud.evaluate(lead_pose));
+    const float lead_now = evidence(h.value);
     const std::vector<Pose2> fresh =
-        global_candidates(map, cloud, /*use_hint=*/false, GlobalSearch::kGrid);
+        global_candidates(map, points, /*use_hint=*/false, GlobalSearch::kGrid);
     step.global_search = true;
     scans_since_search_ = 0;
     std::vector<Pose2> rivals;
@@ -517,8 +464,7 @@ void Localizer::localise(const GridMap& map, const ScanPoints& points, const Las
       // A rival is anything outside the tolerance of a right pose: a look-alike 0.8 m and
       // 10 deg away (CSAIL) must stop the declaration as much as one across the map.
       if (same_place(p, lead_pose, kRivalXy, kRivalTheta)) continue;
-      if (evidence(fine_cloud.evaluate(p)) >=
-          static_cast<float>(config_.verify_ambiguity) * lead_now) {
+      if (evidence(fine.evaluate(p)) >= static_cast<float>(config_.verify_ambiguity) * lead_now) {
         rivals.push_back(p);
       }
     }
@@ -530,8 +476,6 @@ void Localizer::localise(const GridMap& map, const ScanPoints& points, const Las
   }
   tracked_ = h;
   pool_.clear();
-  local_.reset();
-  key_scans_.clear();
   bad_streak_ = 0;
   state_ = LocalizerState::kTracking;
   step.declared = true;

@@ -26,13 +26,6 @@ void add_localise_params(ParamTable& t, LocalizerConfig* c) {
   t.add_double("localise_free_max", &c->free_max_value,
                "a cell is free space (a start candidate) when hit/(hit+err) is at most this");
   t.add_int("localise_candidates", &c->candidates, "distinct candidates kept per global search");
-  t.add_int("localise_search_scans", &c->search_scans,
-            "scans the global search matches at once: the current one and earlier ones placed "
-            "by the follower's own scan-to-scan tracking (1 = the current scan alone)");
-  t.add_double("localise_search_spacing", &c->search_spacing,
-               "metres (or search_spacing_deg) between the scans merged for the global search");
-  t.add_double("localise_search_spacing_deg", &c->search_spacing_deg,
-               "degrees between the scans merged for the global search");
   t.add_int("localise_es_restarts", &c->es_restarts, "es search: ES runs per global search");
   t.add_int("localise_es_iterations", &c->es_iterations, "es search: iterations per ES run");
   t.add_int("localise_confirm_scans", &c->confirm_scans,

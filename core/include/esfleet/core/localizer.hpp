@@ -19,8 +19,6 @@
 // afresh on every scan. It never reads ground truth.
 
 #include <cstdint>
-#include <deque>
-#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -75,13 +73,6 @@ struct LocalizerConfig {
   int candidates = 10;           ///< distinct candidates refined by the ES and followed
   double distinct_xy = 0.5;      ///< candidates closer than this (and distinct_theta) are one
   double distinct_theta_deg = 10.0;
-  /// Scans the global search (and the check before declaring) matches at once: the current
-  /// one and up to search_scans - 1 earlier ones, each at least search_spacing metres (or
-  /// search_spacing_deg) from the next, placed by the follower's own scan-to-scan tracking
-  /// (a local SLAM without loop closure, never the shared map). 1 = the current scan alone.
-  int search_scans = 1;
-  double search_spacing = 0.25;
-  double search_spacing_deg = 10.0;
   int es_restarts = 20;      ///< kEs: independent ES runs per global search
   int es_iterations = 3000;  ///< kEs: iterations per run (the population is the ES's mu)
 
@@ -197,17 +188,7 @@ class Localizer {
   void track(const GridMap& map, const ScanPoints& points, const LaserScan& scan,
              LocalizerStep& step);
 
-  /// The current scan plus the kept earlier ones, in the current scan's frame.
-  ScanPoints search_cloud(const LaserScan& scan, const ScanPoints& points);
-
   LocalizerConfig config_;
-  /// The follower's own scan-to-scan tracking while localising (search_scans > 1).
-  std::unique_ptr<Slam> local_;
-  struct KeyScan {
-    Pose2 pose;  ///< in local_'s frame
-    ScanPoints points;
-  };
-  std::deque<KeyScan> key_scans_;
   EvolutionStrategy es_;
   EvolutionStrategy hypothesis_es_;
   Rng rng_;
