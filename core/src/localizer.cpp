@@ -49,8 +49,6 @@ void LocalizerConfig::validate() const {
   check(max_ambiguity > 0.0 && max_ambiguity <= 1.0, "localise.max_ambiguity must be in (0, 1]");
   check(verify_ambiguity > 0.0 && verify_ambiguity <= 1.0,
         "localise.verify_ambiguity must be in (0, 1]");
-  check(rival_min_agreement >= 0.0 && rival_min_agreement <= 1.0,
-        "localise.rival_min_agreement must be in [0, 1]");
   check(max_hypotheses >= 1, "localise.max_hypotheses must be >= 1");
   check(research_every >= 1, "localise.research_every must be >= 1");
   check(hypothesis_iterations >= 0, "localise.hypothesis_iterations must be >= 0");
@@ -345,15 +343,11 @@ void Localizer::score_scan(Hypothesis& h, const FitnessValue& v, const Pose2& be
   h.turn += std::abs(normalize_angle(now.theta - before.theta));
   h.good_streak = good(v) ? h.good_streak + 1 : 0;
   h.recent.push_back(evidence(v));
-  h.recent_agreement.push_back(v.agreement());
   const auto window = static_cast<std::size_t>(config_.confirm_scans);
   if (h.recent.size() > window) h.recent.erase(h.recent.begin());
-  if (h.recent_agreement.size() > window) h.recent_agreement.erase(h.recent_agreement.begin());
-  float sum = 0.0f, agreement = 0.0f;
+  float sum = 0.0f;
   for (const float s : h.recent) sum += s;
-  for (const float a : h.recent_agreement) agreement += a;
   h.score = sum / static_cast<float>(h.recent.size());
-  h.mean_agreement = agreement / static_cast<float>(h.recent_agreement.size());
 }
 
 void Localizer::add_hypotheses(const std::vector<Pose2>& poses, const GridMap& map,
@@ -422,11 +416,8 @@ void Localizer::localise(const GridMap& map, const ScanPoints& points, const Las
     if (pool_[i].score > pool_[lead].score) lead = i;
   }
   float rival = 0.0f;
-  const auto rival_floor = static_cast<float>(config_.rival_min_agreement);
   for (std::size_t i = 0; i < pool_.size(); ++i) {
-    if (i != lead && pool_[i].mean_agreement >= rival_floor) {
-      rival = std::max(rival, pool_[i].score);
-    }
+    if (i != lead) rival = std::max(rival, pool_[i].score);
   }
   const Hypothesis& h = pool_[lead];
   step.pose = h.motion.last.pose;
@@ -473,9 +464,7 @@ void Localizer::localise(const GridMap& map, const ScanPoints& points, const Las
       // A rival is anything outside the tolerance of a right pose: a look-alike 0.8 m and
       // 10 deg away (CSAIL) must stop the declaration as much as one across the map.
       if (same_place(p, lead_pose, kRivalXy, kRivalTheta)) continue;
-      const FitnessValue v = fine.evaluate(p);
-      if (evidence(v) >= static_cast<float>(config_.verify_ambiguity) * lead_now &&
-          v.agreement() >= rival_floor) {
+      if (evidence(fine.evaluate(p)) >= static_cast<float>(config_.verify_ambiguity) * lead_now) {
         rivals.push_back(p);
       }
     }

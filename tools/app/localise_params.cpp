@@ -40,9 +40,6 @@ void add_localise_params(ParamTable& t, LocalizerConfig* c) {
   t.add_double("localise_min_turn", &c->min_turn_deg, "... or turning this much, degrees");
   t.add_double("localise_max_ambiguity", &c->max_ambiguity,
                "a pose is declared only if the best rival scores below this share of it");
-  t.add_double("localise_rival_min_agreement", &c->rival_min_agreement,
-               "a rival counts against the leader only if its mean agreement reaches this "
-               "(0 = every rival)");
   t.add_int("localise_max_hypotheses", &c->max_hypotheses, "hypotheses followed at once");
   t.add_int("localise_research_every", &c->research_every,
             "scans without a declaration between global searches");

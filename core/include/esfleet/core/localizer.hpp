@@ -83,13 +83,8 @@ struct LocalizerConfig {
   double min_travel = 0.3;     ///< metres moved (or min_turn turned) since the hypothesis began
   double min_turn_deg = 30.0;
   double max_ambiguity = 0.85;  ///< runner-up score / leader's score must stay below this
-  /// A rival counts in that ratio (and in the final check) only if its mean agreement over the
-  /// same scans (on this scan, in the final check) reaches this: a pose that contradicts the
-  /// map's known cells clearly more often than a well-matching scan is allowed to is not a
-  /// look-alike, however many of its end points fall on known cells. 0 = every rival counts.
-  double rival_min_agreement = 0.0;
-  int max_hypotheses = 20;  ///< pool size
-  int research_every = 5;   ///< scans with no well-matching hypothesis between global searches
+  int max_hypotheses = 20;      ///< pool size
+  int research_every = 5;       ///< scans with no well-matching hypothesis between global searches
   /// Before declaring, search globally on the current scan once more (always kGrid, never
   /// limited by the hint); a distinct pose that explains it nearly as well (max_ambiguity)
   /// joins the hypotheses and the declaration waits.
@@ -169,10 +164,8 @@ class Localizer {
     double turn = 0.0;    ///< radians turned in all
     int good_streak = 0;
     int scans = 0;
-    float score = 0.0f;           ///< mean evidence() over the last confirm_scans scans
-    float mean_agreement = 0.0f;  ///< mean agreement over the same scans
+    float score = 0.0f;  ///< mean evidence() over the last confirm_scans scans
     std::vector<float> recent;
-    std::vector<float> recent_agreement;
     FitnessValue value;
   };
 
