@@ -134,10 +134,17 @@ std::string trace_search(const Localizer::SearchStages& st, const Pose2& truth, 
   } else {
     ++r.lost_ranking;
   }
-  const std::size_t nc = st.candidates.size();
-  const double last = nc > 0 && st.ranked_evidence.size() >= nc
-                          ? static_cast<double>(st.ranked_evidence[nc - 1])
-                          : 0.0;
+  // The evidence of the last candidate (candidates are the distinct best re-ranked poses).
+  double last = 0.0;
+  if (!st.candidates.empty()) {
+    const Pose2& c = st.candidates.back();
+    for (std::size_t i = 0; i < st.ranked.size() && i < st.ranked_evidence.size(); ++i) {
+      if (st.ranked[i].x == c.x && st.ranked[i].y == c.y && st.ranked[i].theta == c.theta) {
+        last = static_cast<double>(st.ranked_evidence[i]);
+        break;
+      }
+    }
+  }
   char buf[256];
   std::snprintf(
       buf, sizeof buf,
