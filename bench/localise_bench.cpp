@@ -73,10 +73,6 @@ PoseError pose_error(const Pose2& p, const Pose2& truth) {
           rad_to_deg(std::abs(normalize_angle(p.theta - truth.theta)))};
 }
 
-double known_share(const FitnessValue& v) {
-  return v.n_points > 0 ? static_cast<double>(v.n_known) / v.n_points : 0.0;
-}
-
 bool within(const Pose2& a, const Pose2& b, double xy, double theta_deg) {
   return std::hypot(a.x - b.x, a.y - b.y) <= xy &&
          std::abs(normalize_angle(a.theta - b.theta)) <= deg_to_rad(theta_deg);
@@ -134,17 +130,8 @@ std::string trace_search(const Localizer::SearchStages& st, const Pose2& truth, 
   } else {
     ++r.lost_ranking;
   }
-  // The evidence of the last candidate (candidates are the distinct best re-ranked poses).
-  double last = 0.0;
-  if (!st.candidates.empty()) {
-    const Pose2& c = st.candidates.back();
-    for (std::size_t i = 0; i < st.ranked.size() && i < st.ranked_evidence.size(); ++i) {
-      if (st.ranked[i].x == c.x && st.ranked[i].y == c.y && st.ranked[i].theta == c.theta) {
-        last = static_cast<double>(st.ranked_evidence[i]);
-        break;
-      }
-    }
-  }
+  const double last =
+      st.candidate_evidence.empty() ? 0.0 : static_cast<double>(st.candidate_evidence.back());
   char buf[256];
   std::snprintf(
       buf, sizeof buf,
@@ -178,7 +165,7 @@ std::string trace_line(std::size_t scan, const LocalizerStep& step, const Locali
                     "ev %.3f",
                     scan, to_string(step.state), step.global_search ? " G" : "", step.hypotheses,
                     lead.xy, lead.theta_deg, static_cast<double>(step.value.agreement()),
-                    known_share(step.value), static_cast<double>(step.score));
+                    step.value.known_share(), static_cast<double>(step.score));
   float top = 0.0f, second = 0.0f;
   const Localizer::HypothesisView* near = nullptr;
   double near_d = 1e9;
@@ -203,7 +190,7 @@ std::string trace_line(std::size_t scan, const LocalizerStep& step, const Locali
                   " | nearest err %.2f m %.1f deg score %.3f streak %d agr %.2f known %.2f "
                   "travel %.2f",
                   e.xy, e.theta_deg, static_cast<double>(near->score), near->good_streak,
-                  static_cast<double>(near->value.agreement()), known_share(near->value),
+                  static_cast<double>(near->value.agreement()), near->value.known_share(),
                   near->travel);
   }
   return std::string(buf) + "\n";

@@ -91,10 +91,6 @@ double thread_cpu_ms() {
   return static_cast<double>(ts.tv_sec) * 1e3 + static_cast<double>(ts.tv_nsec) * 1e-6;
 }
 
-double known_share(const FitnessValue& v) {
-  return v.n_points > 0 ? static_cast<double>(v.n_known) / static_cast<double>(v.n_points) : 0.0;
-}
-
 bool same_place(const Pose2& a, const Pose2& b, double xy, double theta) {
   return std::hypot(a.x - b.x, a.y - b.y) < xy &&
          std::abs(normalize_angle(a.theta - b.theta)) < theta;
@@ -159,7 +155,7 @@ FitnessEvaluator Localizer::fine_evaluator(const GridMap& map, const ScanPoints&
 }
 
 bool Localizer::good(const FitnessValue& v) const {
-  return v.agreement() >= config_.min_agreement && known_share(v) >= config_.min_known;
+  return v.agreement() >= config_.min_agreement && v.known_share() >= config_.min_known;
 }
 
 std::vector<Pose2> Localizer::global_candidates(const GridMap& map, const ScanPoints& points,
@@ -275,6 +271,7 @@ std::vector<Pose2> Localizer::grid_candidates(const GridMap& map, const ScanPoin
     });
     if (near) continue;
     kept.push_back(c.pose);
+    if (record_stages_) stages_.candidate_evidence.push_back(c.score);
     if (static_cast<int>(kept.size()) >= config_.candidates) break;
   }
   if (record_stages_) {
@@ -492,7 +489,7 @@ void Localizer::track(const GridMap& map, const ScanPoints& points, const LaserS
   step.value = t.result.value;
   step.score = evidence(t.result.value);
   const bool bad = t.result.value.agreement() < config_.lost_agreement ||
-                   known_share(t.result.value) < config_.lost_known;
+                   t.result.value.known_share() < config_.lost_known;
   bad_streak_ = bad ? bad_streak_ + 1 : 0;
   if (bad_streak_ >= config_.lost_scans) {
     state_ = LocalizerState::kLost;

@@ -127,6 +127,8 @@ TEST(Localizer, RecordsTheStagesOfItsGridSearchOnlyWhenAsked) {
   EXPECT_LE(st.coarse.size(), static_cast<std::size_t>(c.coarse_keep));
   ASSERT_EQ(st.ranked.size(), st.coarse.size());
   ASSERT_EQ(st.ranked_evidence.size(), st.ranked.size());
+  ASSERT_EQ(st.candidate_evidence.size(), st.candidates.size());
+  EXPECT_EQ(st.candidate_evidence.front(), st.ranked_evidence.front());
   EXPECT_TRUE(std::is_sorted(st.ranked_evidence.rbegin(), st.ranked_evidence.rend()));
   // An asymmetric room seen from inside: the best re-ranked pose is the truth.
   EXPECT_TRUE(near(st.ranked.front(), truth, 0.3, 5.0))

@@ -32,6 +32,10 @@ struct FitnessValue {
   float agreement() const {
     return n_known > 0 ? static_cast<float>(n_hit) / static_cast<float>(n_known) : 0.0f;
   }
+  /// Share of all end points that fell in observed cells; 0 if there are none.
+  double known_share() const {
+    return n_points > 0 ? static_cast<double>(n_known) / static_cast<double>(n_points) : 0.0;
+  }
 };
 
 struct FitnessOptions {

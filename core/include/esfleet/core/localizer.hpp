@@ -145,13 +145,14 @@ class Localizer {
 
   /// The stages of the last grid search (diagnostics, filled only after
   /// record_search_stages(true)): the distinct coarse poses kept, the same re-ranked at
-  /// mid_level (best first, with their evidence) and the candidates refined. The ES search
-  /// (GlobalSearch::kEs) leaves them empty.
+  /// mid_level (best first, with their evidence) and the candidates refined (before the ES,
+  /// with their evidence). The ES search (GlobalSearch::kEs) leaves them empty.
   struct SearchStages {
     std::vector<Pose2> coarse;
     std::vector<Pose2> ranked;
     std::vector<float> ranked_evidence;
     std::vector<Pose2> candidates;
+    std::vector<float> candidate_evidence;
   };
   void record_search_stages(bool on) { record_stages_ = on; }
   const SearchStages& last_search() const { return stages_; }
