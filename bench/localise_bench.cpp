@@ -30,6 +30,11 @@ void add_localise_bench_options(CLI::App& cmd, LocaliseBenchOptions& o) {
       ->capture_default_str();
   cmd.add_option("--starts", o.starts, "seeded starts per case")->capture_default_str();
   cmd.add_option("--budget", o.budget, "scans a start may use before it counts as not localised")
+      ->check(CLI::Range(1, 1000000))
+      ->capture_default_str();
+  cmd.add_option("--short-budget", o.short_budget,
+                 "also report success and wrong rates within this many scans (same runs)")
+      ->check(CLI::Range(1, 1000000))
       ->capture_default_str();
   cmd.add_option("--bench-seed", o.seed, "seed of the start sampling and the localisers")
       ->capture_default_str();
@@ -81,6 +86,9 @@ bool within(const Pose2& a, const Pose2& b, double xy, double theta_deg) {
 constexpr double kTolXy = 0.3;
 /// Case b: scans from the start that must lie in the half map's known space.
 constexpr std::size_t kCoveredScans = 20;
+/// Starts are drawn from all but the last kDrawTail scans whatever the budget, so runs with
+/// different budgets use the same starts (a start near the end stops at the end of the log).
+constexpr std::size_t kDrawTail = 100;
 constexpr double kTolThetaDeg = 5.0;
 
 struct StartResult {
@@ -243,9 +251,11 @@ void parallel_for(int threads, std::size_t n, F&& f) {
   for (auto& th : pool) th.join();
 }
 
-nlohmann::json summarize_case(const std::vector<StartResult>& results, std::size_t skipped) {
+nlohmann::json summarize_case(const std::vector<StartResult>& results, std::size_t skipped,
+                              int budget, int short_budget) {
   std::vector<double> cpu, log_s, scans;
   std::size_t ok = 0, wrong = 0, agree = 0, agree_ok = 0, agree_wrong = 0;
+  std::size_t short_ok = 0, short_wrong = 0, log_ended = 0;
   std::size_t near_path = 0, near_ok = 0, near_wrong = 0;
   nlohmann::json failures = nlohmann::json::array();
   for (const StartResult& r : results) {
@@ -262,7 +272,10 @@ nlohmann::json summarize_case(const std::vector<StartResult>& results, std::size
       log_s.push_back(r.log_s);
       scans.push_back(r.scans);
       (r.correct ? ok : wrong)++;
+      // The localiser does not know the budget: a shorter one only cuts the same run.
+      if (r.scans <= short_budget) (r.correct ? short_ok : short_wrong)++;
     }
+    if (!r.declared && r.scans < budget) ++log_ended;
     if (!r.correct) {
       failures.push_back({{"start_scan", r.start},
                           {"declared", r.declared},
@@ -288,6 +301,10 @@ nlohmann::json summarize_case(const std::vector<StartResult>& results, std::size
       {"log_time_p95_s", l.p95},
       {"scans_median", s.median},
       {"scans_p95", s.p95},
+      {"undeclared_log_ended", log_ended},
+      {"short_budget_scans", short_budget},
+      {"success_rate_short_budget", static_cast<double>(short_ok) / n},
+      {"wrong_rate_short_budget", static_cast<double>(short_wrong) / n},
       {"starts_where_map_agrees", agree},
       {"success_rate_where_map_agrees",
        static_cast<double>(agree_ok) / static_cast<double>(std::max<std::size_t>(1, agree))},
@@ -311,6 +328,14 @@ void print_case(const char* name, const nlohmann::json& j) {
       j["median_s"].get<double>(), j["p95_s"].get<double>(), j["max_s"].get<double>(),
       j["log_time_median_s"].get<double>(), j["scans_median"].get<double>(),
       j["scans_p95"].get<double>());
+  std::printf("  within %d scans: success %.1f %%, wrong %.1f %%\n",
+              j["short_budget_scans"].get<int>(),
+              100.0 * j["success_rate_short_budget"].get<double>(),
+              100.0 * j["wrong_rate_short_budget"].get<double>());
+  if (j["undeclared_log_ended"].get<int>() > 0) {
+    std::printf("  undeclared when the log ended (before the budget): %d starts\n",
+                j["undeclared_log_ended"].get<int>());
+  }
   std::printf(
       "  where the map agrees with the start scan at its reference (agreement >= %.1f): "
       "%d starts, success %.1f %%, wrong %.1f %%\n",
@@ -340,9 +365,9 @@ int run_localise_bench(LocaliseBenchOptions& o) {
     std::fprintf(stderr, "esfleet-bench localise: %s\n", e.what());
     return 2;
   }
-  if (scans.size() < static_cast<std::size_t>(2 * o.budget + 10)) {
-    std::fprintf(stderr, "esfleet-bench localise: %s has %zu scans, too few for a budget of %d\n",
-                 o.log.c_str(), scans.size(), o.budget);
+  if (scans.size() < 2 * kDrawTail + 10) {
+    std::fprintf(stderr, "esfleet-bench localise: %s has %zu scans, too few (at least %zu)\n",
+                 o.log.c_str(), scans.size(), 2 * kDrawTail + 10);
     return 2;
   }
   // The leader: one SLAM run over the whole log; the map as it was at half time is kept.
@@ -399,7 +424,7 @@ int run_localise_bench(LocaliseBenchOptions& o) {
     Rng pick(o.seed * 1000u + static_cast<std::uint64_t>(name[0]));
     std::vector<std::size_t> starts;
     std::size_t skipped = 0;
-    const std::size_t hi = scans.size() - static_cast<std::size_t>(o.budget);
+    const std::size_t hi = scans.size() - kDrawTail;
     while (starts.size() < static_cast<std::size_t>(o.starts)) {
       const std::size_t s = lo + pick.below(static_cast<std::uint32_t>(hi - lo));
       // Case b: only starts where the robot is, and stays for its first kCoveredScans scans,
@@ -478,7 +503,7 @@ int run_localise_bench(LocaliseBenchOptions& o) {
                       std::to_string(r.reference_agreement) + "\n" + r.trace;
       }
     }
-    nlohmann::json j = summarize_case(results, skipped);
+    nlohmann::json j = summarize_case(results, skipped, o.budget, o.short_budget);
     print_case(name, j);
     out[std::string("case_") + name] = j;
     pooled.insert(pooled.end(), results.begin(), results.end());
@@ -516,9 +541,10 @@ int run_localise_bench(LocaliseBenchOptions& o) {
       return 1;
     }
   }
-  const nlohmann::json all = summarize_case(pooled, 0);
-  for (const char* k : {"success_rate", "wrong_rate", "undeclared_rate", "median_s", "p95_s",
-                        "scans_median", "scans_p95"}) {
+  const nlohmann::json all = summarize_case(pooled, 0, o.budget, o.short_budget);
+  for (const char* k :
+       {"success_rate", "wrong_rate", "undeclared_rate", "median_s", "p95_s", "scans_median",
+        "scans_p95", "success_rate_short_budget", "wrong_rate_short_budget"}) {
     out[k] = all[k];
   }
 
@@ -567,7 +593,7 @@ int run_localise_bench(LocaliseBenchOptions& o) {
   if (o.kidnaps > 0) {
     std::vector<double> notice, relocalise;
     int correct = 0, wrong = 0, missed = 0;
-    const std::size_t hi = scans.size() - static_cast<std::size_t>(o.budget);
+    const std::size_t hi = scans.size() - kDrawTail;
     Rng kidnap_pick(o.seed * 1000u + 'k');
     for (int k = 0; k < o.kidnaps; ++k) {
       LocalizerConfig c = o.config;

@@ -12,7 +12,8 @@ struct LocaliseBenchOptions {
   std::string log;
   std::string which = "both";  ///< a (map from the whole log), b (first half), both
   int starts = 100;            ///< seeded starts per case
-  int budget = 100;            ///< scans a start may use before it counts as not localised
+  int budget = 300;            ///< scans a start may use before it counts as not localised
+  int short_budget = 100;      ///< also report the rates as if the budget were this
   std::uint64_t seed = 1;
   int kidnaps = 20;
   int threads = 1;
