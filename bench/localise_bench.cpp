@@ -286,36 +286,35 @@ nlohmann::json summarize_case(const std::vector<StartResult>& results, std::size
                           {"leader_path_distance_m", r.path_distance}});
     }
   }
-  const double n = static_cast<double>(std::max<std::size_t>(1, results.size()));
+  /// k of d as a share (0 when d is 0).
+  const auto rate = [](std::size_t k, std::size_t d) {
+    return static_cast<double>(k) / static_cast<double>(std::max<std::size_t>(1, d));
+  };
+  const std::size_t n = results.size();
   const app::Summary c = app::summarize(cpu), l = app::summarize(log_s), s = app::summarize(scans);
-  return {
-      {"starts", results.size()},
-      {"skipped_unmapped_starts", skipped},
-      {"success_rate", static_cast<double>(ok) / n},
-      {"wrong_rate", static_cast<double>(wrong) / n},
-      {"undeclared_rate", static_cast<double>(results.size() - ok - wrong) / n},
-      {"median_s", c.median},
-      {"p95_s", c.p95},
-      {"max_s", c.max},
-      {"log_time_median_s", l.median},
-      {"log_time_p95_s", l.p95},
-      {"scans_median", s.median},
-      {"scans_p95", s.p95},
-      {"undeclared_log_ended", log_ended},
-      {"short_budget_scans", short_budget},
-      {"success_rate_short_budget", static_cast<double>(short_ok) / n},
-      {"wrong_rate_short_budget", static_cast<double>(short_wrong) / n},
-      {"starts_where_map_agrees", agree},
-      {"success_rate_where_map_agrees",
-       static_cast<double>(agree_ok) / static_cast<double>(std::max<std::size_t>(1, agree))},
-      {"wrong_rate_where_map_agrees",
-       static_cast<double>(agree_wrong) / static_cast<double>(std::max<std::size_t>(1, agree))},
-      {"starts_near_leader_path", near_path},
-      {"success_rate_near_leader_path",
-       static_cast<double>(near_ok) / static_cast<double>(std::max<std::size_t>(1, near_path))},
-      {"wrong_rate_near_leader_path",
-       static_cast<double>(near_wrong) / static_cast<double>(std::max<std::size_t>(1, near_path))},
-      {"failures", failures}};
+  return {{"starts", results.size()},
+          {"skipped_unmapped_starts", skipped},
+          {"success_rate", rate(ok, n)},
+          {"wrong_rate", rate(wrong, n)},
+          {"undeclared_rate", rate(n - ok - wrong, n)},
+          {"median_s", c.median},
+          {"p95_s", c.p95},
+          {"max_s", c.max},
+          {"log_time_median_s", l.median},
+          {"log_time_p95_s", l.p95},
+          {"scans_median", s.median},
+          {"scans_p95", s.p95},
+          {"undeclared_log_ended", log_ended},
+          {"short_budget_scans", short_budget},
+          {"success_rate_short_budget", rate(short_ok, n)},
+          {"wrong_rate_short_budget", rate(short_wrong, n)},
+          {"starts_where_map_agrees", agree},
+          {"success_rate_where_map_agrees", rate(agree_ok, agree)},
+          {"wrong_rate_where_map_agrees", rate(agree_wrong, agree)},
+          {"starts_near_leader_path", near_path},
+          {"success_rate_near_leader_path", rate(near_ok, near_path)},
+          {"wrong_rate_near_leader_path", rate(near_wrong, near_path)},
+          {"failures", failures}};
 }
 
 void print_case(const char* name, const nlohmann::json& j) {
