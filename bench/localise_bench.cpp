@@ -51,6 +51,12 @@ void add_localise_bench_options(CLI::App& cmd, LocaliseBenchOptions& o) {
   cmd.add_option("--trace", o.trace,
                  "write a per-scan trace of every failed start to this file (the leading "
                  "hypothesis, the one nearest the reference, their scores and errors)");
+  cmd.add_flag("--trace-all", o.trace_all,
+               "--trace writes every start, the right ones too (to study the declaration rule)");
+  cmd.add_option("--leader-odometry", o.leader_odometry,
+                 "the leader's SLAM with odometry: same as the followers' (--odometry), on or off")
+      ->check(CLI::IsMember({"same", "on", "off"}))
+      ->capture_default_str();
   app::add_slam_params(o.params, &o.config.slam, &o.reader);
   app::add_localise_params(o.params, &o.config);
   o.params.bind(cmd, "Parameters (leader SLAM and follower)");
@@ -138,16 +144,28 @@ std::string trace_search(const Localizer::SearchStages& st, const Pose2& truth, 
   } else {
     ++r.lost_ranking;
   }
+  // The sample position nearest the reference and how its coarse score ranks among all.
+  double near_d = 1e18;
+  float near_score = 0.0f;
+  for (std::size_t i = 0; i < st.samples.size(); ++i) {
+    const double d = std::hypot(st.samples[i].x - truth.x, st.samples[i].y - truth.y);
+    if (d < near_d) {
+      near_d = d;
+      near_score = st.sample_score[i];
+    }
+  }
+  std::size_t above = 0;
+  for (const float f : st.sample_score) above += f > near_score ? 1 : 0;
   const double last =
       st.candidate_evidence.empty() ? 0.0 : static_cast<double>(st.candidate_evidence.back());
-  char buf[256];
+  char buf[384];
   std::snprintf(
       buf, sizeof buf,
       "    search: reference at coarse rank %d of %zu, re-ranked %d (evidence %.3f; "
-      "last candidate %.3f), candidate %d\n",
+      "last candidate %.3f), candidate %d; nearest sample %.2f m, coarse score rank %zu of %zu\n",
       coarse, st.coarse.size(), ranked,
       ranked >= 0 ? static_cast<double>(st.ranked_evidence[static_cast<std::size_t>(ranked)]) : 0.0,
-      last, cand);
+      last, cand, near_d, above, st.samples.size());
   return buf;
 }
 
@@ -176,11 +194,13 @@ std::string trace_line(std::size_t scan, const LocalizerStep& step, const Locali
                     step.value.known_share(), static_cast<double>(step.score));
   float top = 0.0f, second = 0.0f;
   const Localizer::HypothesisView* near = nullptr;
+  const Localizer::HypothesisView* leader = nullptr;
   double near_d = 1e9;
   for (const auto& h : hyps) {
     if (h.score > top) {
       second = top;
       top = h.score;
+      leader = &h;
     } else {
       second = std::max(second, h.score);
     }
@@ -192,6 +212,10 @@ std::string trace_line(std::size_t scan, const LocalizerStep& step, const Locali
   }
   n += std::snprintf(buf + n, sizeof buf - static_cast<std::size_t>(n), " rival %.2f",
                      top > 0.0f ? static_cast<double>(second / top) : 0.0);
+  if (leader != nullptr) {
+    n += std::snprintf(buf + n, sizeof buf - static_cast<std::size_t>(n),
+                       " lead streak %d travel %.2f", leader->good_streak, leader->travel);
+  }
   if (near != nullptr) {
     const PoseError e = pose_error(near->pose, truth);
     std::snprintf(buf + n, sizeof buf - static_cast<std::size_t>(n),
@@ -204,9 +228,22 @@ std::string trace_line(std::size_t scan, const LocalizerStep& step, const Locali
   return std::string(buf) + "\n";
 }
 
+/// --trace-all: every hypothesis of the pool, "id:error m:error deg:hits:known:points".
+std::string trace_hypotheses(const Localizer& loc, const Pose2& truth) {
+  std::string out = "    pool";
+  char buf[96];
+  for (const auto& h : loc.hypotheses()) {
+    const PoseError e = pose_error(h.pose, truth);
+    std::snprintf(buf, sizeof buf, " %u:%.2f:%.1f:%d:%d:%d", h.id, e.xy, e.theta_deg, h.value.n_hit,
+                  h.value.n_known, h.value.n_points);
+    out += buf;
+  }
+  return out + "\n";
+}
+
 StartResult run_start(const LocalizerConfig& config, const GridMap& map,
                       const std::vector<LaserScan>& scans, const Reference& ref, std::size_t start,
-                      int budget, bool trace) {
+                      int budget, bool trace, bool trace_all) {
   Localizer loc(config);
   loc.record_search_stages(trace);
   StartResult r;
@@ -218,6 +255,7 @@ StartResult run_start(const LocalizerConfig& config, const GridMap& map,
     ++r.scans;
     if (trace) {
       r.trace += trace_line(j, step, loc, ref(j));
+      if (trace_all) r.trace += trace_hypotheses(loc, ref(j));
       // (the ES search, --localise-search es, records no stages)
       if (step.global_search && !loc.last_search().coarse.empty()) {
         r.trace += trace_search(loc.last_search(), ref(j), r);
@@ -372,7 +410,9 @@ int run_localise_bench(LocaliseBenchOptions& o) {
   // The leader: one SLAM run over the whole log; the map as it was at half time is kept.
   std::fprintf(stderr, "%s: %zu scans; mapping (leader SLAM) ...\n", o.log.c_str(), scans.size());
   const int levels = o.config.coarse_level;
-  Slam slam(o.config.slam);
+  SlamConfig leader_config = o.config.slam;
+  if (o.leader_odometry != "same") leader_config.use_odometry = o.leader_odometry == "on";
+  Slam slam(leader_config);
   const std::size_t half = scans.size() / 2;
   std::optional<GridMap> half_map;
   for (std::size_t i = 0; i < scans.size(); ++i) {
@@ -414,6 +454,8 @@ int run_localise_bench(LocaliseBenchOptions& o) {
   out["budget_scans"] = o.budget;
   out["tolerance"] = {{"xy_m", kTolXy}, {"theta_deg", kTolThetaDeg}};
   out["search"] = o.config.global == GlobalSearch::kEs ? "es" : "grid";
+  out["leader_odometry"] = leader_config.use_odometry;
+  out["follower_odometry"] = o.config.slam.use_odometry;
   std::vector<StartResult> pooled;
   std::string trace_text;
   // Each part draws from its own stream, so a case's starts do not depend on which other
@@ -451,7 +493,8 @@ int run_localise_bench(LocaliseBenchOptions& o) {
     parallel_for(o.threads, starts.size(), [&](std::size_t i) {
       LocalizerConfig c = o.config;
       c.seed = o.seed * 1000003u + i;
-      results[i] = run_start(c, map, scans, reference, starts[i], o.budget, !o.trace.empty());
+      results[i] =
+          run_start(c, map, scans, reference, starts[i], o.budget, !o.trace.empty(), o.trace_all);
       {
         const ScanPoints pts =
             prepare_scan(scans[starts[i]], o.config.slam.min_range, o.config.slam.max_range);
@@ -496,10 +539,11 @@ int run_localise_bench(LocaliseBenchOptions& o) {
           "candidates in %d, ranked below them in %d, not among the coarse poses in %d\n",
           name, searches, found, lost_ranking, lost_coarse);
       for (const StartResult& r : results) {
-        if (r.correct) continue;
+        if (r.correct && !o.trace_all) continue;
         trace_text += std::string("case ") + name + " start " + std::to_string(r.start) +
-                      (r.declared ? " WRONG" : " undeclared") + " reference_agreement " +
-                      std::to_string(r.reference_agreement) + "\n" + r.trace;
+                      (r.declared ? (r.correct ? " right" : " WRONG") : " undeclared") +
+                      " reference_agreement " + std::to_string(r.reference_agreement) + "\n" +
+                      r.trace;
       }
     }
     nlohmann::json j = summarize_case(results, skipped, o.budget, o.short_budget);

@@ -23,6 +23,10 @@ struct LocaliseBenchOptions {
   bool json = false;
   /// Per-scan trace of every start that did not declare the right pose (diagnostics).
   std::string trace;
+  bool trace_all = false;  ///< the trace holds the right starts too
+  /// The leader's use of odometry: "same" as the followers' (--odometry), "on" or "off" (a
+  /// laser-only map with followers that read their odometry, or the other way round).
+  std::string leader_odometry = "same";
   LocalizerConfig config;
   CarmenReaderOptions reader;
   app::ParamTable params;

@@ -143,7 +143,7 @@ void Localizer::reset() {
 std::vector<Localizer::HypothesisView> Localizer::hypotheses() const {
   std::vector<HypothesisView> out;
   for (const Hypothesis& h : pool_) {
-    out.push_back({h.motion.last.pose, h.score, h.good_streak, h.travel, h.value});
+    out.push_back({h.id, h.motion.last.pose, h.score, h.good_streak, h.travel, h.value});
   }
   return out;
 }
@@ -225,6 +225,12 @@ std::vector<Pose2> Localizer::grid_candidates(const GridMap& map, const ScanPoin
       const Pose2 p{samples[s].x, samples[s].y, th};
       const float f = coarse.fitness(p);
       if (f > best[s].score) best[s] = {f, p};
+    }
+  }
+  if (record_stages_) {
+    for (const Scored& b : best) {
+      stages_.samples.push_back(b.pose);
+      stages_.sample_score.push_back(b.score);
     }
   }
   std::sort(best.begin(), best.end(),
@@ -356,6 +362,7 @@ void Localizer::add_hypotheses(const std::vector<Pose2>& poses, const GridMap& m
     });
     if (known) continue;
     Hypothesis h;
+    h.id = ++next_id_;
     h.motion.last = {scan.stamp, p};
     h.motion.odometry = scan.odometry;
     h.origin = p;

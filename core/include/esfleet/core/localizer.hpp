@@ -138,6 +138,7 @@ class Localizer {
 
   /// The hypotheses followed while localising (for logs and diagnostics).
   struct HypothesisView {
+    std::uint32_t id = 0;  ///< distinct per hypothesis since construction (diagnostics)
     Pose2 pose;
     float score = 0.0f;  ///< mean evidence() over the last confirm_scans scans
     int good_streak = 0;
@@ -151,6 +152,9 @@ class Localizer {
   /// mid_level (best first, with their evidence) and the candidates refined (before the ES,
   /// with their evidence). The ES search (GlobalSearch::kEs) leaves them empty.
   struct SearchStages {
+    /// Every sample position with its best heading and coarse fitness (before ranking).
+    std::vector<Pose2> samples;
+    std::vector<float> sample_score;
     std::vector<Pose2> coarse;
     std::vector<Pose2> ranked;
     std::vector<float> ranked_evidence;
@@ -162,6 +166,7 @@ class Localizer {
 
  private:
   struct Hypothesis {
+    std::uint32_t id = 0;
     MotionState motion;
     Pose2 origin;         ///< where it began (motion check)
     double travel = 0.0;  ///< metres along its path
@@ -204,6 +209,7 @@ class Localizer {
   int bad_streak_ = 0;
   bool record_stages_ = false;
   SearchStages stages_;
+  std::uint32_t next_id_ = 0;
 };
 
 /// The localiser's evidence for a pose: the share of all end points that fall on cells with
