@@ -135,6 +135,40 @@ TEST(Localizer, RecordsTheStagesOfItsGridSearchOnlyWhenAsked) {
       << "(" << st.ranked.front().x << ", " << st.ranked.front().y << ", "
       << st.ranked.front().theta << ")";
   EXPECT_TRUE(near(st.candidates.front(), truth, 0.3, 5.0));
+  // Every sample position with its best heading's coarse score; the kept coarse poses are
+  // among them.
+  ASSERT_EQ(st.sample_score.size(), st.samples.size());
+  EXPECT_GE(st.samples.size(), st.coarse.size());
+  for (const Pose2& k : st.coarse) {
+    EXPECT_TRUE(std::any_of(st.samples.begin(), st.samples.end(), [&](const Pose2& p) {
+      return p.x == k.x && p.y == k.y && p.theta == k.theta;
+    }));
+  }
+}
+
+TEST(Localizer, HypothesisIdsAreDistinctAndKeptWhileFollowed) {
+  const auto world = asymmetric_room();
+  const GridMap map = map_of(world, 12, 8);
+  LocalizerConfig c;
+  c.seed = 3;
+  Localizer loc(c);
+  const std::vector<Pose2> path = drive({2.0, 1.5, 0.3}, 3, 0.1);
+  loc.process(map, make_scan(world, path[0], 0.0));
+  const auto first = loc.hypotheses();
+  ASSERT_GE(first.size(), 2u);
+  for (std::size_t i = 0; i < first.size(); ++i) {
+    EXPECT_GT(first[i].id, 0u);
+    for (std::size_t j = i + 1; j < first.size(); ++j) EXPECT_NE(first[i].id, first[j].id);
+  }
+  // The next scan follows the same hypotheses (some may merge or drop out): no new ids without
+  // a new search.
+  const LocalizerStep s = loc.process(map, make_scan(world, path[1], 0.2));
+  ASSERT_FALSE(s.global_search);
+  for (const auto& h : loc.hypotheses()) {
+    EXPECT_TRUE(
+        std::any_of(first.begin(), first.end(), [&](const auto& f) { return f.id == h.id; }))
+        << "id " << h.id;
+  }
 }
 
 TEST(Localizer, TracksAfterDeclaringAndKeepsTracking) {
