@@ -51,6 +51,13 @@ void LocalizerConfig::validate() const {
         "localise.verify_ambiguity must be in (0, 1]");
   check(max_hypotheses >= 1, "localise.max_hypotheses must be >= 1");
   check(research_every >= 1, "localise.research_every must be >= 1");
+  check(contradiction_factor >= 0.0 && std::isfinite(contradiction_factor) &&
+            contradiction_margin >= 0.0 && contradiction_margin <= 1.0,
+        "localise.contradiction_factor must be >= 0, contradiction_margin in [0, 1]");
+  check(contradiction_min_agreement >= 0.0 && contradiction_min_agreement <= 1.0 &&
+            contradiction_min_known >= 0.0 && contradiction_min_known <= 1.0,
+        "localise.contradiction_min_agreement and contradiction_min_known must be in [0, 1]");
+  check(contradiction_min_streak >= 1, "localise.contradiction_min_streak must be >= 1");
   check(hypothesis_iterations >= 0, "localise.hypothesis_iterations must be >= 0");
   check(prune_ratio >= 0.0 && prune_ratio < 1.0, "localise.prune_ratio must be in [0, 1)");
   check(lost_scans >= 1, "localise.lost_scans must be >= 1");
@@ -64,6 +71,11 @@ void LocalizerConfig::validate() const {
 
 float evidence(const FitnessValue& v) {
   return v.n_points > 0 ? static_cast<float>(v.n_hit) / static_cast<float>(v.n_points) : 0.0f;
+}
+
+float contradiction(const FitnessValue& v) {
+  return v.n_points > 0 ? static_cast<float>(v.n_known - v.n_hit) / static_cast<float>(v.n_points)
+                        : 0.0f;
 }
 
 EvidencePose best_evidence_near(const FitnessEvaluator& eval, const Pose2& centre, double half_xy,
@@ -351,6 +363,31 @@ void Localizer::score_scan(Hypothesis& h, const FitnessValue& v, const Pose2& be
   float sum = 0.0f;
   for (const float s : h.recent) sum += s;
   h.score = sum / static_cast<float>(h.recent.size());
+  h.recent_values.push_back(v);
+  if (h.recent_values.size() > window) h.recent_values.erase(h.recent_values.begin());
+  float c = 0.0f, a = 0.0f, k = 0.0f;
+  for (const FitnessValue& r : h.recent_values) {
+    c += contradiction(r);
+    a += r.agreement();
+    k += static_cast<float>(r.known_share());
+  }
+  const auto n = static_cast<float>(h.recent_values.size());
+  h.contradiction = c / n;
+  h.agreement = a / n;
+  h.known = k / n;
+}
+
+bool Localizer::contradiction_route(const Hypothesis& h) const {
+  return config_.contradiction_factor > 0.0 && h.good_streak >= config_.contradiction_min_streak &&
+         h.agreement >= static_cast<float>(config_.contradiction_min_agreement) &&
+         h.known >= static_cast<float>(config_.contradiction_min_known);
+}
+
+bool Localizer::clear_of(const Hypothesis& h, const Hypothesis& rival) const {
+  if (rival.score <= static_cast<float>(config_.max_ambiguity) * h.score) return true;
+  return contradiction_route(h) &&
+         rival.contradiction >= static_cast<float>(config_.contradiction_factor) * h.contradiction +
+                                    static_cast<float>(config_.contradiction_margin);
 }
 
 void Localizer::add_hypotheses(const std::vector<Pose2>& poses, const GridMap& map,
@@ -419,17 +456,30 @@ void Localizer::localise(const GridMap& map, const ScanPoints& points, const Las
   for (std::size_t i = 1; i < pool_.size(); ++i) {
     if (pool_[i].score > pool_[lead].score) lead = i;
   }
-  float rival = 0.0f;
-  for (std::size_t i = 0; i < pool_.size(); ++i) {
-    if (i != lead) rival = std::max(rival, pool_[i].score);
+  auto ready = [&](std::size_t i) {
+    const Hypothesis& c = pool_[i];
+    const bool moved = c.travel >= config_.min_travel || c.turn >= deg_to_rad(config_.min_turn_deg);
+    if (c.good_streak < config_.confirm_scans || !moved || !(c.score > 0.0f)) return false;
+    for (std::size_t j = 0; j < pool_.size(); ++j) {
+      if (j != i && !clear_of(c, pool_[j])) return false;
+    }
+    return true;
+  };
+  bool go = ready(lead);
+  if (!go && config_.contradiction_factor > 0.0) {
+    // The contradiction route: another hypothesis may be clear of all the others.
+    for (std::size_t i = 0; i < pool_.size() && !go; ++i) {
+      if (i != lead && contradiction_route(pool_[i]) && ready(i)) {
+        lead = i;
+        go = true;
+      }
+    }
   }
   const Hypothesis& h = pool_[lead];
   step.pose = h.motion.last.pose;
   step.value = h.value;
   step.score = h.score;
-  const bool moved = h.travel >= config_.min_travel || h.turn >= deg_to_rad(config_.min_turn_deg);
-  const bool clear = h.score > 0.0f && rival <= static_cast<float>(config_.max_ambiguity) * h.score;
-  if (h.good_streak < config_.confirm_scans || !moved || !clear) return;
+  if (!go) return;
   const FitnessEvaluator fine = fine_evaluator(map, points);
   if (config_.local_check) {
     // Is the leader the best explanation of this scan nearby? Along a corridor the fitness
@@ -459,6 +509,8 @@ void Localizer::localise(const GridMap& map, const ScanPoints& points, const Las
     // the safety net against a wrong confident pose.
     const Pose2 lead_pose = h.motion.last.pose;
     const float lead_now = evidence(h.value);
+    const bool by_contradiction = contradiction_route(h);
+    const float lead_contradiction = contradiction(h.value);
     const std::vector<Pose2> fresh =
         global_candidates(map, points, /*use_hint=*/false, GlobalSearch::kGrid);
     step.global_search = true;
@@ -468,9 +520,15 @@ void Localizer::localise(const GridMap& map, const ScanPoints& points, const Las
       // A rival is anything outside the tolerance of a right pose: a look-alike 0.8 m and
       // 10 deg away (CSAIL) must stop the declaration as much as one across the map.
       if (same_place(p, lead_pose, kRivalXy, kRivalTheta)) continue;
-      if (evidence(fine.evaluate(p)) >= static_cast<float>(config_.verify_ambiguity) * lead_now) {
-        rivals.push_back(p);
+      const FitnessValue v = fine.evaluate(p);
+      if (evidence(v) < static_cast<float>(config_.verify_ambiguity) * lead_now) continue;
+      if (by_contradiction &&
+          contradiction(v) >=
+              static_cast<float>(config_.contradiction_factor) * lead_contradiction +
+                  static_cast<float>(config_.contradiction_margin)) {
+        continue;
       }
+      rivals.push_back(p);
     }
     if (!rivals.empty()) {
       add_hypotheses(rivals, map, points, scan);  // may reallocate pool_: h is not used after

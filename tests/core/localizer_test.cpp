@@ -266,6 +266,43 @@ TEST(Localizer, NoticesAKidnapAndRelocalises) {
   EXPECT_GT(again_at, lost_at) << "not relocalised";
 }
 
+TEST(Localizer, ContradictionIsTheShareOfEndPointsOnKnownFreeCells) {
+  FitnessValue v;
+  EXPECT_EQ(contradiction(v), 0.0f);  // no end points
+  v.n_points = 200;
+  v.n_known = 150;
+  v.n_hit = 120;
+  EXPECT_FLOAT_EQ(contradiction(v), 30.0f / 200.0f);
+  EXPECT_FLOAT_EQ(evidence(v), 120.0f / 200.0f);
+}
+
+TEST(Localizer, TheContradictionRouteLocalisesAndStillDoesNotGuessATwin) {
+  // The route clears a rival only on many more end points in known free space; a twin pose
+  // has exactly as many, so the symmetric room must stay undeclared or right.
+  const auto world = asymmetric_room();
+  const GridMap map = map_of(world, 12, 8);
+  const std::vector<Segment> twin_world = {
+      {0, 0, 10, 0}, {10, 0, 10, 6}, {10, 6, 0, 6}, {0, 6, 0, 0}, {2, 1, 3, 1}, {3, 1, 3, 2},
+      {3, 2, 2, 2},  {2, 2, 2, 1},   {7, 4, 8, 4},  {8, 4, 8, 5}, {8, 5, 7, 5}, {7, 5, 7, 4},
+  };
+  const GridMap twin_map = map_of(twin_world, 10, 6);
+  for (std::uint64_t seed = 1; seed <= 2; ++seed) {
+    LocalizerConfig c;
+    c.seed = seed;
+    c.contradiction_factor = 2.0;
+    c.contradiction_min_streak = 4;
+    Localizer loc(c);
+    const Outcome r = localise(loc, map, world, drive({2.0, 1.5, 0.3}, 40, 0.1));
+    ASSERT_GE(r.declared_at, 0) << "seed " << seed << ": no pose declared";
+    EXPECT_TRUE(near(r.declared, r.truth, 0.1, 3.0)) << "seed " << seed;
+    Localizer twin(c);
+    const Outcome t = localise(twin, twin_map, twin_world, drive({1.5, 3.0, 0.2}, 40, 0.1));
+    if (t.declared_at >= 0) {
+      EXPECT_TRUE(near(t.declared, t.truth, 0.3, 5.0)) << "seed " << seed << ": wrong twin";
+    }
+  }
+}
+
 TEST(Localizer, ConfigValidationNamesTheField) {
   LocalizerConfig c;
   c.candidates = 0;
@@ -278,6 +315,12 @@ TEST(Localizer, ConfigValidationNamesTheField) {
   LocalizerConfig h;
   h.hint = PoseHint{{0, 0, 0}, -1.0, 10.0};
   EXPECT_THROW(Localizer{h}, std::invalid_argument);
+  LocalizerConfig k;
+  k.contradiction_factor = -1.0;
+  EXPECT_THROW(Localizer{k}, std::invalid_argument);
+  k.contradiction_factor = 2.0;
+  k.contradiction_min_streak = 0;
+  EXPECT_THROW(Localizer{k}, std::invalid_argument);
 }
 
 }  // namespace

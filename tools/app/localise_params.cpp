@@ -52,6 +52,16 @@ void add_localise_params(ParamTable& t, LocalizerConfig* c) {
   t.add_switch("localise_local_check", &c->local_check,
                "before declaring, move the pose to a clearly better-fitting one within 0.5 m / "
                "3 deg and confirm again");
+  t.add_double("localise_contradiction_factor", &c->contradiction_factor,
+               "a hypothesis is also clear of a rival with this many times its share of end "
+               "points on known free cells, plus the margin (0 = off: evidence ratio only)");
+  t.add_double("localise_contradiction_margin", &c->contradiction_margin, "... plus this share");
+  t.add_double("localise_contradiction_min_agreement", &c->contradiction_min_agreement,
+               "... if its own mean agreement reaches this");
+  t.add_double("localise_contradiction_min_known", &c->contradiction_min_known,
+               "... and its mean share of end points on known cells this");
+  t.add_int("localise_contradiction_min_streak", &c->contradiction_min_streak,
+            "... and its good streak this many scans");
   t.add_int("localise_hypothesis_iterations", &c->hypothesis_iterations,
             "ES iterations per scan for each hypothesis while localising");
   t.add_double("localise_prune_ratio", &c->prune_ratio,
