@@ -11,7 +11,8 @@
 //  2. Hypotheses: every candidate is tracked scan by scan with the same per-scan step as the
 //     leader (tracking.hpp). A pose is declared only when one hypothesis has matched the map
 //     well (agreement, known share) on `confirm_scans` consecutive scans, the robot has moved,
-//     and no distinct rival scores close to it (a corridor or a symmetric room).
+//     and no distinct rival scores close to it (a corridor or a symmetric room) unless the map
+//     contradicts that rival far more often (the contradiction route, LocalizerConfig).
 //  3. Tracking: the per-scan step on the declared hypothesis. When the match collapses for
 //     `lost_scans` scans the localiser reports lost and searches globally again (kidnap).
 //
