@@ -357,21 +357,18 @@ void Localizer::score_scan(Hypothesis& h, const FitnessValue& v, const Pose2& be
   h.travel += std::hypot(now.x - before.x, now.y - before.y);
   h.turn += std::abs(normalize_angle(now.theta - before.theta));
   h.good_streak = good(v) ? h.good_streak + 1 : 0;
-  h.recent.push_back(evidence(v));
+  h.recent.push_back(v);
   const auto window = static_cast<std::size_t>(config_.confirm_scans);
   if (h.recent.size() > window) h.recent.erase(h.recent.begin());
-  float sum = 0.0f;
-  for (const float s : h.recent) sum += s;
-  h.score = sum / static_cast<float>(h.recent.size());
-  h.recent_values.push_back(v);
-  if (h.recent_values.size() > window) h.recent_values.erase(h.recent_values.begin());
-  float c = 0.0f, a = 0.0f, k = 0.0f;
-  for (const FitnessValue& r : h.recent_values) {
+  float e = 0.0f, c = 0.0f, a = 0.0f, k = 0.0f;
+  for (const FitnessValue& r : h.recent) {
+    e += evidence(r);
     c += contradiction(r);
     a += r.agreement();
     k += static_cast<float>(r.known_share());
   }
-  const auto n = static_cast<float>(h.recent_values.size());
+  const auto n = static_cast<float>(h.recent.size());
+  h.score = e / n;
   h.contradiction = c / n;
   h.agreement = a / n;
   h.known = k / n;
@@ -383,11 +380,14 @@ bool Localizer::contradiction_route(const Hypothesis& h) const {
          h.known >= static_cast<float>(config_.contradiction_min_known);
 }
 
+bool Localizer::contradicted(float rival, float own) const {
+  return rival >= static_cast<float>(config_.contradiction_factor) * own +
+                      static_cast<float>(config_.contradiction_margin);
+}
+
 bool Localizer::clear_of(const Hypothesis& h, const Hypothesis& rival) const {
   if (rival.score <= static_cast<float>(config_.max_ambiguity) * h.score) return true;
-  return contradiction_route(h) &&
-         rival.contradiction >= static_cast<float>(config_.contradiction_factor) * h.contradiction +
-                                    static_cast<float>(config_.contradiction_margin);
+  return contradiction_route(h) && contradicted(rival.contradiction, h.contradiction);
 }
 
 void Localizer::add_hypotheses(const std::vector<Pose2>& poses, const GridMap& map,
@@ -522,12 +522,7 @@ void Localizer::localise(const GridMap& map, const ScanPoints& points, const Las
       if (same_place(p, lead_pose, kRivalXy, kRivalTheta)) continue;
       const FitnessValue v = fine.evaluate(p);
       if (evidence(v) < static_cast<float>(config_.verify_ambiguity) * lead_now) continue;
-      if (by_contradiction &&
-          contradiction(v) >=
-              static_cast<float>(config_.contradiction_factor) * lead_contradiction +
-                  static_cast<float>(config_.contradiction_margin)) {
-        continue;
-      }
+      if (by_contradiction && contradicted(contradiction(v), lead_contradiction)) continue;
       rivals.push_back(p);
     }
     if (!rivals.empty()) {

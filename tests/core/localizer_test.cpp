@@ -52,6 +52,17 @@ bool near(const Pose2& a, const Pose2& b, double xy, double theta_deg) {
          std::abs(normalize_angle(a.theta - b.theta)) <= theta_deg * std::numbers::pi / 180.0;
 }
 
+/// A plain 10 x 6 m rectangle with two identical pillars placed point-symmetrically: every
+/// pose has a twin rotated by 180 degrees about the centre, which explains every scan equally
+/// well.
+std::vector<Segment> twin_pillar_room() {
+  return {
+      {0, 0, 10, 0}, {10, 0, 10, 6}, {10, 6, 0, 6}, {0, 6, 0, 0},
+      {2, 1, 3, 1},  {3, 1, 3, 2},   {3, 2, 2, 2},  {2, 2, 2, 1},  // pillar
+      {7, 4, 8, 4},  {8, 4, 8, 5},   {8, 5, 7, 5},  {7, 5, 7, 4},  // its twin
+  };
+}
+
 struct Outcome {
   int declared_at = -1;  ///< scan index, -1 = never
   Pose2 declared;
@@ -220,13 +231,7 @@ TEST(Localizer, AHintNearTheTruthLocalisesAndAWrongOneDeclaresNothingWrong) {
 }
 
 TEST(Localizer, DoesNotGuessInASymmetricRoom) {
-  // A plain rectangle with two identical pillars placed point-symmetrically: every pose has a
-  // twin rotated by 180 degrees about the centre, which explains every scan equally well.
-  const std::vector<Segment> world = {
-      {0, 0, 10, 0}, {10, 0, 10, 6}, {10, 6, 0, 6}, {0, 6, 0, 0},
-      {2, 1, 3, 1},  {3, 1, 3, 2},   {3, 2, 2, 2},  {2, 2, 2, 1},  // pillar
-      {7, 4, 8, 4},  {8, 4, 8, 5},   {8, 5, 7, 5},  {7, 5, 7, 4},  // its twin
-  };
+  const std::vector<Segment> world = twin_pillar_room();
   const GridMap map = map_of(world, 10, 6);
   for (std::uint64_t seed = 1; seed <= 2; ++seed) {
     LocalizerConfig c;
@@ -281,10 +286,7 @@ TEST(Localizer, TheContradictionRouteLocalisesAndStillDoesNotGuessATwin) {
   // has exactly as many, so the symmetric room must stay undeclared or right.
   const auto world = asymmetric_room();
   const GridMap map = map_of(world, 12, 8);
-  const std::vector<Segment> twin_world = {
-      {0, 0, 10, 0}, {10, 0, 10, 6}, {10, 6, 0, 6}, {0, 6, 0, 0}, {2, 1, 3, 1}, {3, 1, 3, 2},
-      {3, 2, 2, 2},  {2, 2, 2, 1},   {7, 4, 8, 4},  {8, 4, 8, 5}, {8, 5, 7, 5}, {7, 5, 7, 4},
-  };
+  const std::vector<Segment> twin_world = twin_pillar_room();
   const GridMap twin_map = map_of(twin_world, 10, 6);
   for (std::uint64_t seed = 1; seed <= 2; ++seed) {
     LocalizerConfig c;

@@ -188,10 +188,9 @@ class Localizer {
     int good_streak = 0;
     int scans = 0;
     float score = 0.0f;  ///< mean evidence() over the last confirm_scans scans
-    std::vector<float> recent;
     /// Means over the same scans: end points on known free cells / all, agreement, known.
     float contradiction = 0.0f, agreement = 0.0f, known = 0.0f;
-    std::vector<FitnessValue> recent_values;
+    std::vector<FitnessValue> recent;  ///< the last confirm_scans scans' fitness terms
     FitnessValue value;
   };
 
@@ -210,6 +209,8 @@ class Localizer {
   /// Whether `h` is clear of `rival` (max_ambiguity on evidence, or the contradiction route).
   bool clear_of(const Hypothesis& h, const Hypothesis& rival) const;
   bool contradiction_route(const Hypothesis& h) const;
+  /// A rival's contradiction share is at least factor x `own` + margin.
+  bool contradicted(float rival, float own) const;
   /// The full-resolution evaluator hypotheses are scored with (the SLAM's fitness options).
   FitnessEvaluator fine_evaluator(const GridMap& map, const ScanPoints& points) const;
   void localise(const GridMap& map, const ScanPoints& points, const LaserScan& scan,
