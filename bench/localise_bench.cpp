@@ -29,6 +29,10 @@ void add_localise_bench_options(CLI::App& cmd, LocaliseBenchOptions& o) {
       ->check(CLI::IsMember({"a", "b", "both"}))
       ->capture_default_str();
   cmd.add_option("--starts", o.starts, "seeded starts per case")->capture_default_str();
+  cmd.add_option("--start-scans", o.start_scans,
+                 "run these start scans (comma-separated) instead of drawing --starts (the "
+                 "coverage check of case b is not applied)")
+      ->delimiter(',');
   cmd.add_option("--budget", o.budget, "scans a start may use before it counts as not localised")
       ->check(CLI::Range(1, 1000000))
       ->capture_default_str();
@@ -132,7 +136,8 @@ int rank_near(const std::vector<Pose2>& poses, const Pose2& truth) {
 }
 
 /// --trace: where the reference stood in the last grid search; counts it into `r`.
-std::string trace_search(const Localizer::SearchStages& st, const Pose2& truth, StartResult& r) {
+std::string trace_search(const Localizer::SearchStages& st, const Pose2& truth, StartResult& r,
+                         float truth_coarse) {
   const int coarse = rank_near(st.coarse, truth);
   const int ranked = rank_near(st.ranked, truth);
   const int cand = rank_near(st.candidates, truth);
@@ -154,18 +159,23 @@ std::string trace_search(const Localizer::SearchStages& st, const Pose2& truth, 
       near_score = st.sample_score[i];
     }
   }
-  std::size_t above = 0;
-  for (const float f : st.sample_score) above += f > near_score ? 1 : 0;
+  std::size_t above = 0, above_truth = 0;
+  for (const float f : st.sample_score) {
+    above += f > near_score ? 1 : 0;
+    above_truth += f > truth_coarse ? 1 : 0;
+  }
   const double last =
       st.candidate_evidence.empty() ? 0.0 : static_cast<double>(st.candidate_evidence.back());
   char buf[384];
   std::snprintf(
       buf, sizeof buf,
       "    search: reference at coarse rank %d of %zu, re-ranked %d (evidence %.3f; "
-      "last candidate %.3f), candidate %d; nearest sample %.2f m, coarse score rank %zu of %zu\n",
+      "last candidate %.3f), candidate %d; nearest sample %.2f m, coarse score rank %zu of %zu "
+      "(%.2f; at the reference %.2f, rank %zu)\n",
       coarse, st.coarse.size(), ranked,
       ranked >= 0 ? static_cast<double>(st.ranked_evidence[static_cast<std::size_t>(ranked)]) : 0.0,
-      last, cand, near_d, above, st.samples.size());
+      last, cand, near_d, above, st.samples.size(), static_cast<double>(near_score),
+      static_cast<double>(truth_coarse), above_truth);
   return buf;
 }
 
@@ -258,7 +268,14 @@ StartResult run_start(const LocalizerConfig& config, const GridMap& map,
       if (trace_all) r.trace += trace_hypotheses(loc, ref(j));
       // (the ES search, --localise-search es, records no stages)
       if (step.global_search && !loc.last_search().coarse.empty()) {
-        r.trace += trace_search(loc.last_search(), ref(j), r);
+        // The coarse score at the reference itself, as the grid search scores its samples.
+        const ScanPoints pts = prepare_scan(scans[j], config.slam.min_range, config.slam.max_range);
+        FitnessOptions co = slam_fitness_options(config.slam, false);
+        co.level = std::min(config.coarse_level, map.pyramid_levels());
+        co.use_penalty = co.use_penalty && config.coarse_score != CoarseScore::kSum;
+        co.stride = std::max(1, static_cast<int>(pts.size()) / std::max(1, config.coarse_points));
+        const float truth_coarse = FitnessEvaluator(map, pts, co).fitness(ref(j));
+        r.trace += trace_search(loc.last_search(), ref(j), r, truth_coarse);
       }
     }
     if (step.declared) {
@@ -407,6 +424,15 @@ int run_localise_bench(LocaliseBenchOptions& o) {
                  o.log.c_str(), scans.size(), 2 * kDrawTail + 10);
     return 2;
   }
+  for (const std::size_t s : o.start_scans) {
+    if (s >= scans.size() || (o.which != "a" && s < scans.size() / 2)) {
+      std::fprintf(stderr,
+                   "esfleet-bench localise: --start-scans: scan %zu is outside the log's %s "
+                   "(case b starts from scan %zu, the log has %zu)\n",
+                   s, o.which == "a" ? "scans" : "second half", scans.size() / 2, scans.size());
+      return 2;
+    }
+  }
   // The leader: one SLAM run over the whole log; the map as it was at half time is kept.
   std::fprintf(stderr, "%s: %zu scans; mapping (leader SLAM) ...\n", o.log.c_str(), scans.size());
   const int levels = o.config.coarse_level;
@@ -466,7 +492,10 @@ int run_localise_bench(LocaliseBenchOptions& o) {
     std::vector<std::size_t> starts;
     std::size_t skipped = 0;
     const std::size_t hi = scans.size() - kDrawTail;
-    while (starts.size() < static_cast<std::size_t>(o.starts)) {
+    for (const std::size_t s : o.start_scans) {
+      if (s >= lo) starts.push_back(s);  // (checked before the leader ran)
+    }
+    while (o.start_scans.empty() && starts.size() < static_cast<std::size_t>(o.starts)) {
       const std::size_t s = lo + pick.below(static_cast<std::uint32_t>(hi - lo));
       // Case b: only starts where the robot is, and stays for its first kCoveredScans scans,
       // in what the half map covers (at each scan's final pose at least half of the end points

@@ -1,6 +1,7 @@
 #pragma once
 #include <CLI/CLI.hpp>
 #include <string>
+#include <vector>
 
 #include "app/param_table.hpp"
 #include "esfleet/core/carmen_reader.hpp"
@@ -12,8 +13,11 @@ struct LocaliseBenchOptions {
   std::string log;
   std::string which = "both";  ///< a (map from the whole log), b (first half), both
   int starts = 100;            ///< seeded starts per case
-  int budget = 300;            ///< scans a start may use before it counts as not localised
-  int short_budget = 100;      ///< also report the rates as if the budget were this
+  /// Run exactly these start scans instead of drawing (to study single starts); each keeps the
+  /// localiser seed of its place in the list.
+  std::vector<std::size_t> start_scans;
+  int budget = 300;        ///< scans a start may use before it counts as not localised
+  int short_budget = 100;  ///< also report the rates as if the budget were this
   std::uint64_t seed = 1;
   int kidnaps = 20;
   int threads = 1;

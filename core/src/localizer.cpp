@@ -225,41 +225,50 @@ std::vector<Pose2> Localizer::grid_candidates(const GridMap& map, const ScanPoin
   const FitnessEvaluator coarse(map, points, coarse_options);
   const int headings = std::max(1, static_cast<int>(std::ceil(span / step_theta - 1e-9)) +
                                        (span < 2.0 * M_PI - 1e-9 ? 1 : 0));
-  // Best heading per sample position.
+  // Best heading per sample position, by the penalised fitness and by the sum of map values
+  // (one evaluation gives both).
   struct Scored {
     float score;
     Pose2 pose;
   };
-  std::vector<Scored> best(samples.size(), Scored{-1.0f, {}});
+  std::vector<Scored> best_fit(samples.size(), Scored{-1.0f, {}});
+  std::vector<Scored> best_sum(samples.size(), Scored{-1.0f, {}});
   for (int h = 0; h < headings; ++h) {
     const double th = normalize_angle(theta0 + h * step_theta);
     for (std::size_t s = 0; s < samples.size(); ++s) {
       const Pose2 p{samples[s].x, samples[s].y, th};
-      const float f = coarse.fitness(p);
-      if (f > best[s].score) best[s] = {f, p};
+      const FitnessValue v = coarse.evaluate(p);
+      if (v.fitness > best_fit[s].score) best_fit[s] = {v.fitness, p};
+      if (v.sum_map > best_sum[s].score) best_sum[s] = {v.sum_map, p};
     }
   }
+  const CoarseScore by = config_.coarse_score;
   if (record_stages_) {
-    for (const Scored& b : best) {
+    for (const Scored& b : by == CoarseScore::kSum ? best_sum : best_fit) {
       stages_.samples.push_back(b.pose);
       stages_.sample_score.push_back(b.score);
     }
   }
-  std::sort(best.begin(), best.end(),
-            [](const Scored& a, const Scored& b) { return a.score > b.score; });
   // The coarse level is blurred (max over 2^L cells): keep many distinct coarse poses, then
   // rank them by their evidence at a finer level over a small window around each.
   std::vector<Scored> coarse_kept;
   const double dth = deg_to_rad(config_.distinct_theta_deg);
-  for (const Scored& c : best) {
-    if (!(c.score > 0.0f)) break;
-    const bool near = std::any_of(coarse_kept.begin(), coarse_kept.end(), [&](const Scored& k) {
-      return same_place(k.pose, c.pose, step_xy * 2.0, dth);
-    });
-    if (near) continue;
-    coarse_kept.push_back(c);
-    if (static_cast<int>(coarse_kept.size()) >= config_.coarse_keep) break;
-  }
+  auto keep_best = [&](std::vector<Scored>& best) {
+    std::sort(best.begin(), best.end(),
+              [](const Scored& a, const Scored& b) { return a.score > b.score; });
+    const std::size_t first = coarse_kept.size();
+    for (const Scored& c : best) {
+      if (!(c.score > 0.0f)) break;
+      const bool near = std::any_of(coarse_kept.begin(), coarse_kept.end(), [&](const Scored& k) {
+        return same_place(k.pose, c.pose, step_xy * 2.0, dth);
+      });
+      if (near) continue;
+      coarse_kept.push_back(c);
+      if (coarse_kept.size() - first >= static_cast<std::size_t>(config_.coarse_keep)) break;
+    }
+  };
+  if (by != CoarseScore::kSum) keep_best(best_fit);
+  if (by != CoarseScore::kFitness) keep_best(best_sum);
   FitnessOptions mid_options = slam_fitness_options(config_.slam, false);
   mid_options.level = std::min(config_.mid_level, map.pyramid_levels());
   const FitnessEvaluator mid(map, points, mid_options);

@@ -43,11 +43,13 @@ TEST(LocaliseParams, FlagsReachTheConfigAndBadValuesAreRefusedByValidation) {
   add_localise_params(t, &c);
   CLI::App app;
   t.bind(app);
-  const char* argv[] = {"x", "--localise-search", "es", "--localise-confirm-scans",
-                        "6", "--lost-scans",      "0"};
-  app.parse(7, const_cast<char**>(argv));
+  const char* argv[] = {"x",  "--localise-search", "es", "--localise-confirm-scans",
+                        "6",  "--lost-scans",      "0",  "--localise-coarse-score",
+                        "sum"};
+  app.parse(9, const_cast<char**>(argv));
   t.apply();
   EXPECT_EQ(c.global, GlobalSearch::kEs);
+  EXPECT_EQ(c.coarse_score, CoarseScore::kSum);
   EXPECT_EQ(c.confirm_scans, 6);
   EXPECT_EQ(c.lost_scans, 0);
   try {
@@ -55,6 +57,23 @@ TEST(LocaliseParams, FlagsReachTheConfigAndBadValuesAreRefusedByValidation) {
     FAIL() << "lost_scans 0 accepted";
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("lost_scans"), std::string::npos) << e.what();
+  }
+}
+
+TEST(LocaliseParams, ACoarseScoreOutsideTheChoicesIsRefused) {
+  LocalizerConfig c;
+  ParamTable t;
+  add_localise_params(t, &c);
+  CLI::App app;
+  t.bind(app);
+  const char* argv[] = {"x", "--localise-coarse-score", "penalty"};
+  app.parse(3, const_cast<char**>(argv));
+  try {
+    t.apply();
+    FAIL() << "coarse score 'penalty' accepted";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("coarse"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("penalty"), std::string::npos) << e.what();
   }
 }
 

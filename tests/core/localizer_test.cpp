@@ -10,6 +10,7 @@
 #include <numbers>
 #include <stdexcept>
 
+#include "esfleet/core/fitness.hpp"
 #include "esfleet/core/map_update.hpp"
 #include "esfleet/core/scan_points.hpp"
 #include "synthetic_world.hpp"
@@ -155,6 +156,82 @@ TEST(Localizer, RecordsTheStagesOfItsGridSearchOnlyWhenAsked) {
       return p.x == k.x && p.y == k.y && p.theta == k.theta;
     }));
   }
+}
+
+TEST(Localizer, TheCoarseScoreIsThePenalisedFitnessOrTheSumOfMapValues) {
+  const auto world = asymmetric_room();
+  const GridMap map = map_of(world, 12, 8);
+  const LaserScan scan = make_scan(world, {2.0, 1.5, 0.3});
+  for (const bool penalty : {true, false}) {
+    LocalizerConfig c;
+    c.seed = 2;
+    c.coarse_score = penalty ? CoarseScore::kFitness : CoarseScore::kSum;
+    Localizer loc(c);
+    loc.record_search_stages(true);
+    ASSERT_TRUE(loc.process(map, scan).global_search);
+    const Localizer::SearchStages& st = loc.last_search();
+    ASSERT_FALSE(st.samples.empty());
+    const ScanPoints pts = prepare_scan(scan, c.slam.min_range, c.slam.max_range);
+    // Each sample's score is the fitness (Condition 1 or 2) on the coarse level at the heading
+    // recorded for it.
+    FitnessOptions o;
+    o.use_penalty = penalty;
+    o.level = c.coarse_level;
+    o.stride = std::max(1, static_cast<int>(pts.size()) / c.coarse_points);
+    const FitnessEvaluator coarse(map, pts, o);
+    o.use_penalty = !penalty;
+    const FitnessEvaluator other(map, pts, o);
+    int differ = 0;
+    for (std::size_t i = 0; i < st.samples.size(); ++i) {
+      EXPECT_FLOAT_EQ(st.sample_score[i], coarse.fitness(st.samples[i])) << "sample " << i;
+      differ += other.fitness(st.samples[i]) != st.sample_score[i];
+    }
+    EXPECT_GT(differ, 0) << "penalty " << penalty << ": p_occ was 1 everywhere";
+  }
+}
+
+TEST(Localizer, CoarseScoreBothKeepsTheBestPosesOfEachRanking) {
+  const auto world = asymmetric_room();
+  const GridMap map = map_of(world, 12, 8);
+  const LaserScan scan = make_scan(world, {2.0, 1.5, 0.3});
+  auto coarse_of = [&](CoarseScore by) {
+    LocalizerConfig c;
+    c.seed = 2;
+    c.coarse_keep = 40;  // fewer than the room's distinct coarse poses: the rankings differ
+    c.coarse_score = by;
+    Localizer loc(c);
+    loc.record_search_stages(true);
+    loc.process(map, scan);
+    return loc.last_search().coarse;
+  };
+  const std::vector<Pose2> fit = coarse_of(CoarseScore::kFitness);
+  const std::vector<Pose2> sum = coarse_of(CoarseScore::kSum);
+  const std::vector<Pose2> both = coarse_of(CoarseScore::kBoth);
+  ASSERT_EQ(fit.size(), 40u);
+  ASSERT_EQ(sum.size(), 40u);
+  auto same = [](const Pose2& a, const Pose2& b) {
+    return a.x == b.x && a.y == b.y && a.theta == b.theta;
+  };
+  auto count_in = [&](const std::vector<Pose2>& of, const std::vector<Pose2>& in) {
+    return std::count_if(of.begin(), of.end(), [&](const Pose2& p) {
+      return std::any_of(in.begin(), in.end(), [&](const Pose2& q) { return same(p, q); });
+    });
+  };
+  EXPECT_LT(count_in(sum, fit), 40) << "the two rankings kept the same poses";
+  // The fitness ranking's poses first, then the sum's best 40 not already near one of them.
+  ASSERT_GT(both.size(), fit.size());
+  EXPECT_LE(both.size(), 80u);
+  for (std::size_t i = 0; i < fit.size(); ++i) EXPECT_TRUE(same(both[i], fit[i])) << i;
+  EXPECT_EQ(count_in(both, fit), 40);
+  // Each of the sum ranking's poses is kept, or lies beside a kept pose (the coarse poses'
+  // spacing: twice the 0.3 m sample step and distinct_theta_deg, 10 degrees).
+  const long beside = std::count_if(sum.begin(), sum.end(), [&](const Pose2& p) {
+    return std::any_of(both.begin(), both.end(), [&](const Pose2& q) {
+      return std::hypot(p.x - q.x, p.y - q.y) < 0.6 + 1e-9 &&
+             std::abs(normalize_angle(p.theta - q.theta)) < deg_to_rad(10.0) + 1e-9;
+    });
+  });
+  EXPECT_GE(beside, 38) << "of 40";
 }
 
 TEST(Localizer, HypothesisIdsAreDistinctAndKeptWhileFollowed) {

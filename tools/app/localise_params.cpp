@@ -23,6 +23,20 @@ void add_localise_params(ParamTable& t, LocalizerConfig* c) {
   t.add_double("localise_step_theta", &c->step_theta_deg,
                "grid search heading step, degrees (0 = a coarse cell at the median range)");
   t.add_int("localise_coarse_points", &c->coarse_points, "end points used for coarse scoring");
+  t.add_choice(
+      "localise_coarse_score", {"fitness", "sum", "both"},
+      [c](const std::string& v) {
+        c->coarse_score = v == "sum"    ? CoarseScore::kSum
+                          : v == "both" ? CoarseScore::kBoth
+                                        : CoarseScore::kFitness;
+      },
+      [c] {
+        return std::string(c->coarse_score == CoarseScore::kSum    ? "sum"
+                           : c->coarse_score == CoarseScore::kBoth ? "both"
+                                                                   : "fitness");
+      },
+      "grid search: rank the coarse poses by the paper's fitness, by the sum of map values "
+      "(without the penalty p_occ), or keep the best by each");
   t.add_double("localise_free_max", &c->free_max_value,
                "a cell is free space (a start candidate) when hit/(hit+err) is at most this");
   t.add_int("localise_candidates", &c->candidates, "distinct candidates kept per global search");
