@@ -55,7 +55,7 @@ enum class CoarseScore : std::uint8_t {
   /// counts against p_occ unless one of the cells it covers was only ever hit, so p_occ
   /// rewards end points near rarely observed cells, and a well-observed corridor whose walls
   /// grazing beams also cross ranks low (fr079: p_occ 0.53 at a true pose the map agrees with
-  /// 0.96; it ranked 609th of 4540 sample positions).
+  /// 0.96; 609 of 4540 sample positions scored higher).
   kFitness,
   /// The sum of map values alone (Condition 2; ours, default since 2026-12-02).
   kSum,
