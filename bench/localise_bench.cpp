@@ -270,11 +270,8 @@ StartResult run_start(const LocalizerConfig& config, const GridMap& map,
       if (step.global_search && !loc.last_search().coarse.empty()) {
         // The coarse score at the reference itself, as the grid search scores its samples.
         const ScanPoints pts = prepare_scan(scans[j], config.slam.min_range, config.slam.max_range);
-        FitnessOptions co = slam_fitness_options(config.slam, false);
-        co.level = std::min(config.coarse_level, map.pyramid_levels());
-        co.use_penalty = co.use_penalty && config.coarse_score != CoarseScore::kSum;
-        co.stride = std::max(1, static_cast<int>(pts.size()) / std::max(1, config.coarse_points));
-        const float truth_coarse = FitnessEvaluator(map, pts, co).fitness(ref(j));
+        const float truth_coarse =
+            FitnessEvaluator(map, pts, loc.coarse_options(map, pts)).fitness(ref(j));
         r.trace += trace_search(loc.last_search(), ref(j), r, truth_coarse);
       }
     }

@@ -166,6 +166,14 @@ FitnessEvaluator Localizer::fine_evaluator(const GridMap& map, const ScanPoints&
       slam_fitness_options(config_.slam, config_.slam.interpolation != Interpolation::kNone));
 }
 
+FitnessOptions Localizer::coarse_options(const GridMap& map, const ScanPoints& points) const {
+  FitnessOptions o = slam_fitness_options(config_.slam, false);
+  o.level = std::min(config_.coarse_level, map.pyramid_levels());
+  o.stride = std::max(1, static_cast<int>(points.size()) / std::max(1, config_.coarse_points));
+  o.use_penalty = o.use_penalty && config_.coarse_score != CoarseScore::kSum;
+  return o;
+}
+
 bool Localizer::good(const FitnessValue& v) const {
   return v.agreement() >= config_.min_agreement && v.known_share() >= config_.min_known;
 }
@@ -218,11 +226,7 @@ std::vector<Pose2> Localizer::global_candidates(const GridMap& map, const ScanPo
 std::vector<Pose2> Localizer::grid_candidates(const GridMap& map, const ScanPoints& points,
                                               const std::vector<Pose2>& samples, double step_xy,
                                               double step_theta, double theta0, double span) {
-  FitnessOptions coarse_options = slam_fitness_options(config_.slam, false);
-  coarse_options.level = std::min(config_.coarse_level, map.pyramid_levels());
-  coarse_options.stride =
-      std::max(1, static_cast<int>(points.size()) / std::max(1, config_.coarse_points));
-  const FitnessEvaluator coarse(map, points, coarse_options);
+  const FitnessEvaluator coarse(map, points, coarse_options(map, points));
   const int headings = std::max(1, static_cast<int>(std::ceil(span / step_theta - 1e-9)) +
                                        (span < 2.0 * M_PI - 1e-9 ? 1 : 0));
   // Best heading per sample position, by the penalised fitness and by the sum of map values

@@ -8,12 +8,8 @@
 namespace esfleet::app {
 
 void add_localise_params(ParamTable& t, LocalizerConfig* c) {
-  t.add_choice(
-      "localise_search", {"grid", "es"},
-      [c](const std::string& v) {
-        c->global = v == "es" ? GlobalSearch::kEs : GlobalSearch::kGrid;
-      },
-      [c] { return std::string(c->global == GlobalSearch::kEs ? "es" : "grid"); },
+  t.add_enum<GlobalSearch>(
+      "localise_search", &c->global, {{"grid", GlobalSearch::kGrid}, {"es", GlobalSearch::kEs}},
       "global search: grid = coarse exhaustive scoring then ES refinement (ours); es = the ES "
       "alone from a population spread over free space, with restarts (the paper's way)");
   t.add_int("localise_coarse_level", &c->coarse_level,
@@ -23,18 +19,11 @@ void add_localise_params(ParamTable& t, LocalizerConfig* c) {
   t.add_double("localise_step_theta", &c->step_theta_deg,
                "grid search heading step, degrees (0 = a coarse cell at the median range)");
   t.add_int("localise_coarse_points", &c->coarse_points, "end points used for coarse scoring");
-  t.add_choice(
-      "localise_coarse_score", {"fitness", "sum", "both"},
-      [c](const std::string& v) {
-        c->coarse_score = v == "sum"    ? CoarseScore::kSum
-                          : v == "both" ? CoarseScore::kBoth
-                                        : CoarseScore::kFitness;
-      },
-      [c] {
-        return std::string(c->coarse_score == CoarseScore::kSum    ? "sum"
-                           : c->coarse_score == CoarseScore::kBoth ? "both"
-                                                                   : "fitness");
-      },
+  t.add_enum<CoarseScore>(
+      "localise_coarse_score", &c->coarse_score,
+      {{"fitness", CoarseScore::kFitness},
+       {"sum", CoarseScore::kSum},
+       {"both", CoarseScore::kBoth}},
       "grid search: rank the coarse poses by the paper's fitness, by the sum of map values "
       "(without the penalty p_occ), or keep the best by each");
   t.add_double("localise_free_max", &c->free_max_value,

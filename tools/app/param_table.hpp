@@ -7,6 +7,7 @@
 #include <functional>
 #include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <CLI/CLI.hpp>
@@ -25,6 +26,28 @@ class ParamTable {
   void add_choice(const std::string& name, std::vector<std::string> choices,
                   std::function<void(const std::string&)> set, std::function<std::string()> get,
                   const std::string& help);
+  /// One of the names in `names`, stored in `*field` as the value paired with it (one table
+  /// for both directions; every value `*field` can hold must be listed).
+  template <typename E>
+  void add_enum(const std::string& name, E* field, std::vector<std::pair<std::string, E>> names,
+                const std::string& help) {
+    std::vector<std::string> choices;
+    for (const auto& n : names) choices.push_back(n.first);
+    add_choice(
+        name, std::move(choices),
+        [field, names](const std::string& v) {
+          for (const auto& [text, value] : names) {
+            if (text == v) *field = value;
+          }
+        },
+        [field, names] {
+          for (const auto& [text, value] : names) {
+            if (value == *field) return text;
+          }
+          return std::string("?");
+        },
+        help);
+  }
 
   /// Registers `--name-with-dashes` for every parameter (in option group `group`) and
   /// `--config FILE`.

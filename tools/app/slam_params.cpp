@@ -22,17 +22,10 @@ void add_slam_params(ParamTable& t, SlamConfig* s, CarmenReaderOptions* r) {
                "fitness with the penalty p_occ (paper Condition 1); off = Condition 2");
   // Pipeline.
   t.add_switch("odometry", &s->use_odometry, "predict with the log's odometry increments");
-  t.add_choice(
-      "prediction", {"previous", "constant-velocity"},
-      [s](const std::string& v) {
-        s->prediction =
-            v == "previous" ? MotionPrediction::kPreviousPose : MotionPrediction::kConstantVelocity;
-      },
-      [s] {
-        return std::string(s->prediction == MotionPrediction::kPreviousPose ? "previous"
-                                                                            : "constant-velocity");
-      },
-      "pose prediction without odometry");
+  t.add_enum<MotionPrediction>("prediction", &s->prediction,
+                               {{"previous", MotionPrediction::kPreviousPose},
+                                {"constant-velocity", MotionPrediction::kConstantVelocity}},
+                               "pose prediction without odometry");
   t.add_float("min_range", &s->min_range, "ignore beams shorter than this, metres");
   t.add_float("max_range", &s->max_range, "ignore beams at or beyond this, metres (0 = all)");
   t.add_double("init_sigma_xy", &s->init_sigma_xy,
@@ -46,20 +39,12 @@ void add_slam_params(ParamTable& t, SlamConfig* s, CarmenReaderOptions* r) {
                "the initial population");
   t.add_switch("turn_hypotheses", &s->turn_hypotheses,
                "laser only: also hypotheses turning +-1 and +-2 times the last turn");
-  t.add_choice(
-      "interpolation", {"none", "polish", "all"},
-      [s](const std::string& v) {
-        s->interpolation = v == "none"     ? Interpolation::kNone
-                           : v == "polish" ? Interpolation::kPolish
-                                           : Interpolation::kAll;
-      },
-      [s] {
-        return std::string(s->interpolation == Interpolation::kNone     ? "none"
-                           : s->interpolation == Interpolation::kPolish ? "polish"
-                                                                        : "all");
-      },
-      "bilinear sub-cell map values in the fitness: nowhere, in the final polish, or also in "
-      "the ES");
+  t.add_enum<Interpolation>("interpolation", &s->interpolation,
+                            {{"none", Interpolation::kNone},
+                             {"polish", Interpolation::kPolish},
+                             {"all", Interpolation::kAll}},
+                            "bilinear sub-cell map values in the fitness: nowhere, in the final "
+                            "polish, or also in the ES");
   t.add_switch("refine", &s->refine, "polish the ES result with a deterministic pattern search");
   t.add_double("prior_sigma_xy", &s->prior_sigma_xy, "motion prior width, metres (0 = no prior)");
   t.add_double("prior_sigma_theta", &s->prior_sigma_theta_deg,
@@ -95,16 +80,9 @@ void add_slam_params(ParamTable& t, SlamConfig* s, CarmenReaderOptions* r) {
                "pose-graph edge between consecutive inserted scans, metres");
   t.add_double("key_sigma_theta", &s->key_sigma_theta_deg, "... degrees");
   // Reader.
-  t.add_choice(
-      "even_beams", {"start", "centered"},
-      [r](const std::string& v) {
-        r->even_beams =
-            v == "start" ? EvenBeamConvention::kStartAtMinus90 : EvenBeamConvention::kCentered;
-      },
-      [r] {
-        return std::string(r->even_beams == EvenBeamConvention::kStartAtMinus90 ? "start"
-                                                                                : "centered");
-      },
+  t.add_enum<EvenBeamConvention>(
+      "even_beams", &r->even_beams,
+      {{"start", EvenBeamConvention::kStartAtMinus90}, {"centered", EvenBeamConvention::kCentered}},
       "beam angles of FLASER scans with an even beam count: first beam at -90 deg, or centred "
       "(no beam at 0 deg)");
 }

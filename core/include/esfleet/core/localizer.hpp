@@ -194,6 +194,10 @@ class Localizer {
     std::vector<float> candidate_evidence;
   };
   void record_search_stages(bool on) { record_stages_ = on; }
+  /// The grid search's coarse scoring for `points` in `map`: level, strided end points and,
+  /// unless ranking by CoarseScore::kSum, the penalty (an evaluator's `fitness` is then the
+  /// score the sample positions are ranked and recorded by).
+  FitnessOptions coarse_options(const GridMap& map, const ScanPoints& points) const;
   const SearchStages& last_search() const { return stages_; }
 
  private:
