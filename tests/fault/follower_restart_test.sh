@@ -32,6 +32,13 @@ kill -KILL "$pid_f"
 wait "$pid_f" 2>/dev/null || true
 t0=$(date +%s%N)
 follower f2 --exit-when-complete --timeout 100
+# SIGUSR1 before the follower installed its handler would kill it (seen on a loaded machine,
+# 0.2 s after the start): wait for the line it logs after installing its handlers.
+for _ in $(seq 1 100); do
+  grep -q "following map" "$work/f2.log" 2>/dev/null && break
+  sleep 0.1
+done
+grep -q "following map" "$work/f2.log" || fail "restarted follower did not start: $(tail -3 "$work/f2.log")"
 for _ in $(seq 1 50); do  # SIGUSR1 saves its map and stats: poll until it has tiles
   sleep 0.2
   kill -USR1 "$pid_f"
