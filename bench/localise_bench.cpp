@@ -36,8 +36,10 @@ void add_localise_bench_options(CLI::App& cmd, LocaliseBenchOptions& o) {
   cmd.add_option("--budget", o.budget, "scans a start may use before it counts as not localised")
       ->check(CLI::Range(1, 1000000))
       ->capture_default_str();
-  cmd.add_option("--short-budget", o.short_budget,
-                 "also report success and wrong rates within this many scans (same runs)")
+  cmd.add_option("--within", o.within,
+                 "also report success and wrong rates within each of these many scans "
+                 "(comma-separated; the same runs cut short)")
+      ->delimiter(',')
       ->check(CLI::Range(1, 1000000))
       ->capture_default_str();
   cmd.add_option("--bench-seed", o.seed, "seed of the start sampling and the localisers")
@@ -304,10 +306,11 @@ void parallel_for(int threads, std::size_t n, F&& f) {
 }
 
 nlohmann::json summarize_case(const std::vector<StartResult>& results, std::size_t skipped,
-                              int budget, int short_budget) {
+                              int budget, const std::vector<int>& within) {
   std::vector<double> cpu, log_s, scans;
   std::size_t ok = 0, wrong = 0, agree = 0, agree_ok = 0, agree_wrong = 0;
-  std::size_t short_ok = 0, short_wrong = 0, log_ended = 0;
+  std::vector<std::size_t> within_ok(within.size(), 0), within_wrong(within.size(), 0);
+  std::size_t log_ended = 0;
   std::size_t near_path = 0, near_ok = 0, near_wrong = 0;
   nlohmann::json failures = nlohmann::json::array();
   for (const StartResult& r : results) {
@@ -325,7 +328,9 @@ nlohmann::json summarize_case(const std::vector<StartResult>& results, std::size
       scans.push_back(r.scans);
       (r.correct ? ok : wrong)++;
       // The localiser does not know the budget: a shorter one only cuts the same run.
-      if (r.scans <= short_budget) (r.correct ? short_ok : short_wrong)++;
+      for (std::size_t w = 0; w < within.size(); ++w) {
+        if (r.scans <= within[w]) (r.correct ? within_ok[w] : within_wrong[w])++;
+      }
     }
     if (!r.declared && r.scans < budget) ++log_ended;
     if (!r.correct) {
@@ -344,6 +349,12 @@ nlohmann::json summarize_case(const std::vector<StartResult>& results, std::size
   };
   const std::size_t n = results.size();
   const app::Summary c = app::summarize(cpu), l = app::summarize(log_s), s = app::summarize(scans);
+  nlohmann::json cut = nlohmann::json::array();
+  for (std::size_t w = 0; w < within.size(); ++w) {
+    cut.push_back({{"scans", within[w]},
+                   {"success_rate", rate(within_ok[w], n)},
+                   {"wrong_rate", rate(within_wrong[w], n)}});
+  }
   return {{"starts", results.size()},
           {"skipped_unmapped_starts", skipped},
           {"success_rate", rate(ok, n)},
@@ -357,9 +368,7 @@ nlohmann::json summarize_case(const std::vector<StartResult>& results, std::size
           {"scans_median", s.median},
           {"scans_p95", s.p95},
           {"undeclared_log_ended", log_ended},
-          {"short_budget_scans", short_budget},
-          {"success_rate_short_budget", rate(short_ok, n)},
-          {"wrong_rate_short_budget", rate(short_wrong, n)},
+          {"within", cut},
           {"starts_where_map_agrees", agree},
           {"success_rate_where_map_agrees", rate(agree_ok, agree)},
           {"wrong_rate_where_map_agrees", rate(agree_wrong, agree)},
@@ -379,10 +388,10 @@ void print_case(const char* name, const nlohmann::json& j) {
       j["median_s"].get<double>(), j["p95_s"].get<double>(), j["max_s"].get<double>(),
       j["log_time_median_s"].get<double>(), j["scans_median"].get<double>(),
       j["scans_p95"].get<double>());
-  std::printf("  within %d scans: success %.1f %%, wrong %.1f %%\n",
-              j["short_budget_scans"].get<int>(),
-              100.0 * j["success_rate_short_budget"].get<double>(),
-              100.0 * j["wrong_rate_short_budget"].get<double>());
+  for (const nlohmann::json& w : j["within"]) {
+    std::printf("  within %d scans: success %.1f %%, wrong %.1f %%\n", w["scans"].get<int>(),
+                100.0 * w["success_rate"].get<double>(), 100.0 * w["wrong_rate"].get<double>());
+  }
   if (j["undeclared_log_ended"].get<int>() > 0) {
     std::printf("  undeclared when the log ended (before the budget): %d starts\n",
                 j["undeclared_log_ended"].get<int>());
@@ -572,7 +581,7 @@ int run_localise_bench(LocaliseBenchOptions& o) {
                       r.trace;
       }
     }
-    nlohmann::json j = summarize_case(results, skipped, o.budget, o.short_budget);
+    nlohmann::json j = summarize_case(results, skipped, o.budget, o.within);
     print_case(name, j);
     out[std::string("case_") + name] = j;
     pooled.insert(pooled.end(), results.begin(), results.end());
@@ -610,10 +619,9 @@ int run_localise_bench(LocaliseBenchOptions& o) {
       return 1;
     }
   }
-  const nlohmann::json all = summarize_case(pooled, 0, o.budget, o.short_budget);
-  for (const char* k :
-       {"success_rate", "wrong_rate", "undeclared_rate", "median_s", "p95_s", "scans_median",
-        "scans_p95", "success_rate_short_budget", "wrong_rate_short_budget"}) {
+  const nlohmann::json all = summarize_case(pooled, 0, o.budget, o.within);
+  for (const char* k : {"success_rate", "wrong_rate", "undeclared_rate", "median_s", "p95_s",
+                        "scans_median", "scans_p95", "within"}) {
     out[k] = all[k];
   }
 
