@@ -51,6 +51,8 @@ void LocalizerConfig::validate() const {
         "localise.verify_ambiguity must be in (0, 1]");
   check(max_hypotheses >= 1, "localise.max_hypotheses must be >= 1");
   check(research_every >= 1, "localise.research_every must be >= 1");
+  check(research_every_max >= research_every,
+        "localise.research_every_max must be >= localise.research_every");
   check(contradiction_factor >= 0.0 && std::isfinite(contradiction_factor) &&
             contradiction_margin >= 0.0 && contradiction_margin <= 1.0,
         "localise.contradiction_factor must be >= 0, contradiction_margin in [0, 1]");
@@ -142,12 +144,14 @@ Localizer::Localizer(LocalizerConfig config)
       }()),
       rng_(config_.seed) {
   config_.validate();
+  research_wait_ = config_.research_every;
 }
 
 void Localizer::reset() {
   state_ = LocalizerState::kWaitingForMap;
   pool_.clear();
   scans_since_search_ = 0;
+  research_wait_ = config_.research_every;
   searching_scans_ = 0;
   bad_streak_ = 0;
 }
@@ -456,7 +460,10 @@ void Localizer::localise(const GridMap& map, const ScanPoints& points, const Las
   const bool use_hint = config_.hint && searching_scans_ <= config_.hint_scans;
   const bool any_good = std::any_of(pool_.begin(), pool_.end(),
                                     [](const Hypothesis& h) { return h.good_streak > 0; });
-  if (pool_.empty() || (!any_good && scans_since_search_ >= config_.research_every)) {
+  if (any_good) research_wait_ = config_.research_every;
+  if (pool_.empty() || (!any_good && scans_since_search_ >= research_wait_)) {
+    // A search that follows scans where nothing matched well: wait longer for the next one.
+    if (!pool_.empty()) research_wait_ = std::min(2 * research_wait_, config_.research_every_max);
     add_hypotheses(global_candidates(map, points, use_hint, config_.global), map, points, scan);
     scans_since_search_ = 0;
     step.global_search = true;
@@ -569,6 +576,7 @@ void Localizer::track(const GridMap& map, const ScanPoints& points, const LaserS
     step.lost = true;
     pool_.clear();
     scans_since_search_ = 0;
+    research_wait_ = config_.research_every;
     searching_scans_ = config_.hint_scans;  // a hint no longer applies: search globally
   }
 }

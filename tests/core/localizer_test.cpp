@@ -400,6 +400,59 @@ TEST(Localizer, ConfigValidationNamesTheField) {
   k.contradiction_factor = 2.0;
   k.contradiction_min_streak = 0;
   EXPECT_THROW(Localizer{k}, std::invalid_argument);
+  LocalizerConfig r;
+  r.research_every_max = r.research_every - 1;
+  try {
+    Localizer loc(r);
+    FAIL() << "no throw";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("localise.research_every_max"), std::string::npos)
+        << e.what();
+  }
+}
+
+/// The scans at which a localiser searched globally over `n` scans from a round room of
+/// 1.6 m radius, which the map of the rectangular room does not hold: no pose explains a scan
+/// there well.
+std::vector<int> searches_where_nothing_matches(const LocalizerConfig& c, int n) {
+  const GridMap map = map_of(asymmetric_room(), 12, 8);
+  std::vector<Segment> round;
+  constexpr int kSides = 36;
+  for (int k = 0; k < kSides; ++k) {
+    const double a = 2.0 * std::numbers::pi * k / kSides,
+                 b = 2.0 * std::numbers::pi * (k + 1) / kSides;
+    round.push_back({1.6 * std::cos(a), 1.6 * std::sin(a), 1.6 * std::cos(b), 1.6 * std::sin(b)});
+  }
+  Localizer loc(c);
+  std::vector<int> at;
+  for (int i = 0; i < n; ++i) {
+    const Pose2 p{0.3, 0.0, 0.05 * i};  // turning on the spot
+    const LocalizerStep s = loc.process(map, make_scan(round, p, 0.2 * i));
+    EXPECT_FALSE(s.declared) << "declared a pose from a room the map does not hold, scan " << i;
+    if (s.global_search) at.push_back(i);
+  }
+  return at;
+}
+
+TEST(Localizer, WaitsLongerBetweenFruitlessGlobalSearches) {
+  LocalizerConfig c;
+  c.seed = 3;
+  const std::vector<int> backoff = searches_where_nothing_matches(c, 100);
+  // Waits of 5, 10, then 20 scans (research_every, doubled up to research_every_max).
+  ASSERT_GE(backoff.size(), 4u);
+  std::vector<int> waits;
+  for (std::size_t i = 1; i < backoff.size(); ++i) waits.push_back(backoff[i] - backoff[i - 1]);
+  EXPECT_EQ(backoff.front(), 0);
+  EXPECT_EQ(waits[0], c.research_every + 1);
+  EXPECT_EQ(waits[1], 2 * c.research_every + 1);
+  for (std::size_t i = 2; i < waits.size(); ++i) EXPECT_EQ(waits[i], c.research_every_max + 1);
+  // research_every_max = research_every: a search every research_every + 1 scans throughout.
+  c.research_every_max = c.research_every;
+  const std::vector<int> fixed = searches_where_nothing_matches(c, 100);
+  EXPECT_GE(fixed.size(), 2 * backoff.size());
+  for (std::size_t i = 1; i < fixed.size(); ++i) {
+    EXPECT_EQ(fixed[i] - fixed[i - 1], c.research_every + 1) << "search " << i;
+  }
 }
 
 }  // namespace

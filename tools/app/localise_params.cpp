@@ -46,6 +46,9 @@ void add_localise_params(ParamTable& t, LocalizerConfig* c) {
   t.add_int("localise_max_hypotheses", &c->max_hypotheses, "hypotheses followed at once");
   t.add_int("localise_research_every", &c->research_every,
             "scans without a declaration between global searches");
+  t.add_int("localise_research_every_max", &c->research_every_max,
+            "each search after which nothing matches well doubles that wait, up to this many "
+            "scans (= research_every: no backoff)");
   t.add_switch("localise_verify", &c->verify,
                "search globally once more before declaring a pose; a rival explaining the scan "
                "nearly as well delays the declaration");

@@ -106,6 +106,11 @@ struct LocalizerConfig {
   double max_ambiguity = 0.75;
   int max_hypotheses = 20;  ///< pool size
   int research_every = 5;   ///< scans with no well-matching hypothesis between global searches
+  /// Each global search after which still no hypothesis matches well doubles the wait before
+  /// the next, up to this many scans; a well-matching hypothesis resets it to research_every
+  /// (= research_every: a search every research_every scans, the rule before 2026-12-02). A
+  /// follower where the map knows little stops spending a global search every second.
+  int research_every_max = 20;
   /// Before declaring, search globally on the current scan once more (always kGrid, never
   /// limited by the hint); a distinct pose that explains it nearly as well (verify_ambiguity)
   /// joins the hypotheses and the declaration waits.
@@ -247,6 +252,7 @@ class Localizer {
   LocalizerState state_ = LocalizerState::kWaitingForMap;
   std::vector<Hypothesis> pool_;
   int scans_since_search_ = 0;
+  int research_wait_ = 0;    ///< scans to the next global search while none matches well
   int searching_scans_ = 0;  ///< scans since localising (re)started
   Hypothesis tracked_;
   int bad_streak_ = 0;
