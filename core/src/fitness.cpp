@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 namespace esfleet {
 
@@ -117,6 +118,114 @@ FitnessValue FitnessEvaluator::evaluate(const Pose2& pose) const {
       n_known += v >= 0.0f;
     }
   }
+  for (std::size_t l = 0; l < 4; ++l) {
+    sum += lane_sum[l];
+    n_hit += lane_hit[l];
+    n_err += lane_err[l];
+    n_known += lane_known[l];
+  }
+  out.sum_map = sum;
+  out.n_hit = n_hit;
+  out.n_err = n_err;
+  out.n_known = n_known;
+  out.n_points = static_cast<std::int32_t>(n);
+  out.p_occ =
+      n_hit + n_err > 0 ? static_cast<float>(n_hit) / static_cast<float>(n_hit + n_err) : 0.0f;
+  out.fitness = options_.use_penalty ? out.p_occ * sum : sum;
+  return out;
+}
+
+HeadingScorer::HeadingScorer(const GridMap& map, const ScanPoints& points, FitnessOptions options)
+    : options_(options),
+      inv_cell_(1.0 / (map.cell_size() * static_cast<double>(1 << options.level))) {
+  if (options.interpolate) {
+    throw std::invalid_argument("HeadingScorer: interpolation is not supported");
+  }
+  const GridMap::Lookup lookup = map.lookup(options.level);  // throws for a level not kept
+  const GridMap::Lookup::Addressing a = lookup.addressing();
+  const std::int32_t edge = std::int32_t{1} << a.shift;
+  x0_ = a.tx0 * edge;
+  y0_ = a.ty0 * edge;
+  width_ = a.width * edge;
+  height_ = a.height * edge;
+  // One more cell at the end: the unknown sentinel every end point outside reads.
+  cells_.assign(static_cast<std::size_t>(width_) * static_cast<std::size_t>(height_) + 1,
+                kUnknownScore);
+  for (std::int32_t ty = 0; ty < a.height; ++ty) {
+    for (std::int32_t tx = 0; tx < a.width; ++tx) {
+      const float* tile = lookup.tile((ty << a.stride_shift) + tx);
+      for (std::int32_t ly = 0; ly < edge; ++ly) {
+        float* row = cells_.data() + static_cast<std::size_t>(ty * edge + ly) * width_ + tx * edge;
+        for (std::int32_t lx = 0; lx < edge; ++lx) row[lx] = tile[(ly << a.shift) | lx];
+      }
+    }
+  }
+  const auto step = static_cast<std::size_t>(std::max(options.stride, 1));
+  for (std::size_t i = 0; i < points.size(); i += step) {
+    px_.push_back(static_cast<float>(points.x[i] * inv_cell_));
+    py_.push_back(static_cast<float>(points.y[i] * inv_cell_));
+  }
+  cpx_.resize(px_.size());
+  spy_.resize(px_.size());
+  spx_.resize(px_.size());
+  cpy_.resize(px_.size());
+}
+
+void HeadingScorer::set_heading(double theta) {
+  heading_ok_ = std::isfinite(theta);
+  if (!heading_ok_) return;
+  // The products FitnessEvaluator::evaluate forms per end point, rounded to float the same way.
+  const auto c = static_cast<float>(std::cos(theta));
+  const auto s = static_cast<float>(std::sin(theta));
+  for (std::size_t j = 0; j < px_.size(); ++j) {
+    cpx_[j] = c * px_[j];
+    spy_[j] = s * py_[j];
+    spx_[j] = s * px_[j];
+    cpy_[j] = c * py_[j];
+  }
+}
+
+FitnessValue HeadingScorer::evaluate(double x, double y) const {
+  FitnessValue out;
+  const double ox = x * inv_cell_, oy = y * inv_cell_;
+  constexpr double kFar = 1e8;  // as FitnessEvaluator::evaluate
+  if (!(std::abs(ox) < kFar && std::abs(oy) < kFar && heading_ok_)) return out;
+  const auto fx = static_cast<float>(ox), fy = static_cast<float>(oy);
+  const std::size_t n = px_.size();
+  const float* cells = cells_.data();
+  const auto outside = static_cast<std::int32_t>(cells_.size() - 1);  // the unknown sentinel
+  // The evaluator's blocks and summation order: four lanes by end point index modulo 4, then
+  // the lanes in order; padding adds nothing.
+  alignas(32) std::int32_t index[kBlock];
+  alignas(32) float value[kBlock];
+  alignas(16) float lane_sum[4] = {0, 0, 0, 0};
+  alignas(16) std::int32_t lane_hit[4] = {0, 0, 0, 0};
+  alignas(16) std::int32_t lane_err[4] = {0, 0, 0, 0};
+  alignas(16) std::int32_t lane_known[4] = {0, 0, 0, 0};
+  for (std::size_t base = 0; base < n; base += kBlock) {
+    const std::size_t m = std::min(kBlock, n - base);
+    for (std::size_t j = 0; j < m; ++j) {
+      const float wx = fx + cpx_[base + j] - spy_[base + j];
+      const float wy = fy + spx_[base + j] + cpy_[base + j];
+      const std::int32_t ix = fast_floor(wx) - x0_, iy = fast_floor(wy) - y0_;
+      const bool inside = (ix >= 0) & (ix < width_) & (iy >= 0) & (iy < height_);
+      index[j] = inside ? iy * width_ + ix : outside;
+    }
+    for (std::size_t j = 0; j < m; ++j) value[j] = cells[index[j]];
+    const std::size_t m4 = (m + 3) & ~std::size_t{3};
+    for (std::size_t j = m; j < m4; ++j) value[j] = kUnknownScore;
+    for (std::size_t j = 0; j < m4; j += 4) {
+      for (std::size_t l = 0; l < 4; ++l) {
+        const float v = value[j + l];
+        lane_sum[l] += v > 0.0f ? v : 0.0f;
+        lane_hit[l] += v > 0.0f;
+        lane_err[l] += (v >= 0.0f) & (v < 1.0f);
+        lane_known[l] += v >= 0.0f;
+      }
+    }
+  }
+  float sum = 0.0f;
+  std::int32_t n_hit = 0, n_err = 0, n_known = 0;
   for (std::size_t l = 0; l < 4; ++l) {
     sum += lane_sum[l];
     n_hit += lane_hit[l];

@@ -5,6 +5,7 @@
 #include <ctime>
 #include <stdexcept>
 
+#include "esfleet/core/fitness.hpp"
 #include "esfleet/core/scan_points.hpp"
 
 namespace esfleet {
@@ -230,7 +231,9 @@ std::vector<Pose2> Localizer::global_candidates(const GridMap& map, const ScanPo
 std::vector<Pose2> Localizer::grid_candidates(const GridMap& map, const ScanPoints& points,
                                               const std::vector<Pose2>& samples, double step_xy,
                                               double step_theta, double theta0, double span) {
-  const FitnessEvaluator coarse(map, points, coarse_options(map, points));
+  // The same scores as a FitnessEvaluator with these options, from a dense copy of the level
+  // with the end points rotated once per heading (most of a global search's time is here).
+  HeadingScorer coarse(map, points, coarse_options(map, points));
   const int headings = std::max(1, static_cast<int>(std::ceil(span / step_theta - 1e-9)) +
                                        (span < 2.0 * M_PI - 1e-9 ? 1 : 0));
   // Best heading per sample position, by the penalised fitness and by the sum of map values
@@ -243,9 +246,10 @@ std::vector<Pose2> Localizer::grid_candidates(const GridMap& map, const ScanPoin
   std::vector<Scored> best_sum(samples.size(), Scored{-1.0f, {}});
   for (int h = 0; h < headings; ++h) {
     const double th = normalize_angle(theta0 + h * step_theta);
+    coarse.set_heading(th);
     for (std::size_t s = 0; s < samples.size(); ++s) {
       const Pose2 p{samples[s].x, samples[s].y, th};
-      const FitnessValue v = coarse.evaluate(p);
+      const FitnessValue v = coarse.evaluate(p.x, p.y);
       if (v.fitness > best_fit[s].score) best_fit[s] = {v.fitness, p};
       if (v.sum_map > best_sum[s].score) best_sum[s] = {v.sum_map, p};
     }

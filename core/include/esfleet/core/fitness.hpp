@@ -68,4 +68,32 @@ class FitnessEvaluator {
   std::vector<float> px_, py_;  ///< end points in cell units
 };
 
+/// One scan scored at many positions for one heading at a time, on one pyramid level without
+/// interpolation: the same FitnessValue as FitnessEvaluator::evaluate, bit for bit, for a
+/// fraction of the cost where many positions share a heading (the global search's coarse
+/// stage). The level is copied into one dense array (a load per end point instead of a tile
+/// look-up) and the end points are rotated once per heading.
+class HeadingScorer {
+ public:
+  /// Throws std::invalid_argument if options.interpolate is set. Copies what it needs: the
+  /// map may change afterwards (the copy does not follow it).
+  HeadingScorer(const GridMap& map, const ScanPoints& points, FitnessOptions options);
+
+  /// The heading evaluate() scores at (radians).
+  void set_heading(double theta);
+  /// FitnessEvaluator::evaluate({x, y, theta}) for the theta of set_heading().
+  FitnessValue evaluate(double x, double y) const;
+
+ private:
+  FitnessOptions options_;
+  double inv_cell_;
+  bool heading_ok_ = false;
+  std::vector<float> px_, py_;  ///< end points in cell units
+  /// For the current heading: cos * px, sin * py, sin * px, cos * py.
+  std::vector<float> cpx_, spy_, spx_, cpy_;
+  /// The level's scores, row-major from (x0_, y0_), then one unknown cell (outside).
+  std::vector<float> cells_;
+  std::int32_t x0_ = 0, y0_ = 0, width_ = 0, height_ = 0;
+};
+
 }  // namespace esfleet
