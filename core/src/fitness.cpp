@@ -32,6 +32,53 @@ inline std::int32_t fast_floor(float v) {
 // from the arithmetic so the CPU overlaps them.
 constexpr std::size_t kBlock = 64;
 
+/// The per-cell terms summed in four lanes by end point index modulo 4 (a fixed summation
+/// order the compiler can vectorise), then the lanes in order.
+struct Lanes {
+  alignas(16) float sum[4] = {0, 0, 0, 0};
+  alignas(16) std::int32_t hit[4] = {0, 0, 0, 0};
+  alignas(16) std::int32_t err[4] = {0, 0, 0, 0};
+  alignas(16) std::int32_t known[4] = {0, 0, 0, 0};
+
+  /// Adds the scores value[0, m); value has room for m rounded up to 4: the padding is set to
+  /// unknown cells, which add nothing.
+  void add(float* value, std::size_t m) {
+    const std::size_t m4 = (m + 3) & ~std::size_t{3};
+    for (std::size_t j = m; j < m4; ++j) value[j] = kUnknownScore;
+    for (std::size_t j = 0; j < m4; j += 4) {
+      for (std::size_t l = 0; l < 4; ++l) {
+        const float v = value[j + l];
+        sum[l] += v > 0.0f ? v : 0.0f;
+        hit[l] += v > 0.0f;
+        err[l] += (v >= 0.0f) & (v < 1.0f);
+        known[l] += v >= 0.0f;
+      }
+    }
+  }
+  /// Adds the lanes into the totals, lane 0 first.
+  void total(float& s, std::int32_t& n_hit, std::int32_t& n_err, std::int32_t& n_known) const {
+    for (std::size_t l = 0; l < 4; ++l) {
+      s += sum[l];
+      n_hit += hit[l];
+      n_err += err[l];
+      n_known += known[l];
+    }
+  }
+};
+
+/// The fitness terms from the totals over n end points.
+void finish(FitnessValue& out, float sum, std::int32_t n_hit, std::int32_t n_err,
+            std::int32_t n_known, std::size_t n, bool use_penalty) {
+  out.sum_map = sum;
+  out.n_hit = n_hit;
+  out.n_err = n_err;
+  out.n_known = n_known;
+  out.n_points = static_cast<std::int32_t>(n);
+  out.p_occ =
+      n_hit + n_err > 0 ? static_cast<float>(n_hit) / static_cast<float>(n_hit + n_err) : 0.0f;
+  out.fitness = use_penalty ? out.p_occ * sum : sum;
+}
+
 }  // namespace
 
 FitnessValue FitnessEvaluator::evaluate(const Pose2& pose) const {
@@ -57,10 +104,7 @@ FitnessValue FitnessEvaluator::evaluate(const Pose2& pose) const {
   alignas(32) float frac_y[kBlock];
   float sum = 0.0f;
   std::int32_t n_hit = 0, n_err = 0, n_known = 0;
-  alignas(16) float lane_sum[4] = {0, 0, 0, 0};
-  alignas(16) std::int32_t lane_hit[4] = {0, 0, 0, 0};
-  alignas(16) std::int32_t lane_err[4] = {0, 0, 0, 0};
-  alignas(16) std::int32_t lane_known[4] = {0, 0, 0, 0};
+  Lanes lanes;
 
   for (std::size_t base = 0; base < n; base += kBlock) {
     const std::size_t m = std::min(kBlock, n - base);
@@ -73,19 +117,7 @@ FitnessValue FitnessEvaluator::evaluate(const Pose2& pose) const {
         offset[j] = map.offset(ix, iy);
       }
       for (std::size_t j = 0; j < m; ++j) value[j] = tiles.tile(slot[j])[offset[j]];
-      // Pad to a multiple of 4 with unknown cells (add nothing), then accumulate in four
-      // lanes: a fixed summation order the compiler can vectorise.
-      const std::size_t m4 = (m + 3) & ~std::size_t{3};
-      for (std::size_t j = m; j < m4; ++j) value[j] = kUnknownScore;
-      for (std::size_t j = 0; j < m4; j += 4) {
-        for (std::size_t l = 0; l < 4; ++l) {
-          const float v = value[j + l];
-          lane_sum[l] += v > 0.0f ? v : 0.0f;
-          lane_hit[l] += v > 0.0f;
-          lane_err[l] += (v >= 0.0f) & (v < 1.0f);
-          lane_known[l] += v >= 0.0f;
-        }
-      }
+      lanes.add(value, m);
       continue;
     }
     // Bilinear: the four cells whose centres surround the point. The point's own cell (for
@@ -118,20 +150,8 @@ FitnessValue FitnessEvaluator::evaluate(const Pose2& pose) const {
       n_known += v >= 0.0f;
     }
   }
-  for (std::size_t l = 0; l < 4; ++l) {
-    sum += lane_sum[l];
-    n_hit += lane_hit[l];
-    n_err += lane_err[l];
-    n_known += lane_known[l];
-  }
-  out.sum_map = sum;
-  out.n_hit = n_hit;
-  out.n_err = n_err;
-  out.n_known = n_known;
-  out.n_points = static_cast<std::int32_t>(n);
-  out.p_occ =
-      n_hit + n_err > 0 ? static_cast<float>(n_hit) / static_cast<float>(n_hit + n_err) : 0.0f;
-  out.fitness = options_.use_penalty ? out.p_occ * sum : sum;
+  lanes.total(sum, n_hit, n_err, n_known);
+  finish(out, sum, n_hit, n_err, n_known, n, options_.use_penalty);
   return out;
 }
 
@@ -194,14 +214,10 @@ FitnessValue HeadingScorer::evaluate(double x, double y) const {
   const std::size_t n = px_.size();
   const float* cells = cells_.data();
   const auto outside = static_cast<std::int32_t>(cells_.size() - 1);  // the unknown sentinel
-  // The evaluator's blocks and summation order: four lanes by end point index modulo 4, then
-  // the lanes in order; padding adds nothing.
+  // The evaluator's blocks and summation order.
   alignas(32) std::int32_t index[kBlock];
   alignas(32) float value[kBlock];
-  alignas(16) float lane_sum[4] = {0, 0, 0, 0};
-  alignas(16) std::int32_t lane_hit[4] = {0, 0, 0, 0};
-  alignas(16) std::int32_t lane_err[4] = {0, 0, 0, 0};
-  alignas(16) std::int32_t lane_known[4] = {0, 0, 0, 0};
+  Lanes lanes;
   for (std::size_t base = 0; base < n; base += kBlock) {
     const std::size_t m = std::min(kBlock, n - base);
     for (std::size_t j = 0; j < m; ++j) {
@@ -212,34 +228,12 @@ FitnessValue HeadingScorer::evaluate(double x, double y) const {
       index[j] = inside ? iy * width_ + ix : outside;
     }
     for (std::size_t j = 0; j < m; ++j) value[j] = cells[index[j]];
-    const std::size_t m4 = (m + 3) & ~std::size_t{3};
-    for (std::size_t j = m; j < m4; ++j) value[j] = kUnknownScore;
-    for (std::size_t j = 0; j < m4; j += 4) {
-      for (std::size_t l = 0; l < 4; ++l) {
-        const float v = value[j + l];
-        lane_sum[l] += v > 0.0f ? v : 0.0f;
-        lane_hit[l] += v > 0.0f;
-        lane_err[l] += (v >= 0.0f) & (v < 1.0f);
-        lane_known[l] += v >= 0.0f;
-      }
-    }
+    lanes.add(value, m);
   }
   float sum = 0.0f;
   std::int32_t n_hit = 0, n_err = 0, n_known = 0;
-  for (std::size_t l = 0; l < 4; ++l) {
-    sum += lane_sum[l];
-    n_hit += lane_hit[l];
-    n_err += lane_err[l];
-    n_known += lane_known[l];
-  }
-  out.sum_map = sum;
-  out.n_hit = n_hit;
-  out.n_err = n_err;
-  out.n_known = n_known;
-  out.n_points = static_cast<std::int32_t>(n);
-  out.p_occ =
-      n_hit + n_err > 0 ? static_cast<float>(n_hit) / static_cast<float>(n_hit + n_err) : 0.0f;
-  out.fitness = options_.use_penalty ? out.p_occ * sum : sum;
+  lanes.total(sum, n_hit, n_err, n_known);
+  finish(out, sum, n_hit, n_err, n_known, n, options_.use_penalty);
   return out;
 }
 
