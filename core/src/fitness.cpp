@@ -6,21 +6,26 @@
 
 namespace esfleet {
 
-FitnessEvaluator::FitnessEvaluator(const GridMap& map, const ScanPoints& points,
-                                   FitnessOptions options)
-    : lookup_(map.lookup(options.level)),
-      inv_cell_(1.0 / (map.cell_size() * static_cast<double>(1 << options.level))),
-      options_(options) {
-  const auto step = static_cast<std::size_t>(std::max(options.stride, 1));
-  px_.reserve(points.size() / step + 1);
-  py_.reserve(points.size() / step + 1);
+namespace {
+
+/// Every stride-th end point in cell units (the evaluators' copy of the scan).
+void scale_points(const ScanPoints& points, double inv_cell, int stride, std::vector<float>& px,
+                  std::vector<float>& py) {
+  const auto step = static_cast<std::size_t>(std::max(stride, 1));
+  px.reserve(points.size() / step + 1);
+  py.reserve(points.size() / step + 1);
   for (std::size_t i = 0; i < points.size(); i += step) {
-    px_.push_back(static_cast<float>(points.x[i] * inv_cell_));
-    py_.push_back(static_cast<float>(points.y[i] * inv_cell_));
+    px.push_back(static_cast<float>(points.x[i] * inv_cell));
+    py.push_back(static_cast<float>(points.y[i] * inv_cell));
   }
 }
 
-namespace {
+/// A candidate whose origin lies this far out in cell units (or is not finite) scores zero
+/// rather than overflowing the cell index conversion.
+bool beyond_any_map(double ox, double oy) {
+  constexpr double kFar = 1e8;
+  return !(std::abs(ox) < kFar && std::abs(oy) < kFar);
+}
 
 inline std::int32_t fast_floor(float v) {
   const auto i = static_cast<std::int32_t>(v);
@@ -81,13 +86,18 @@ void finish(FitnessValue& out, float sum, std::int32_t n_hit, std::int32_t n_err
 
 }  // namespace
 
+FitnessEvaluator::FitnessEvaluator(const GridMap& map, const ScanPoints& points,
+                                   FitnessOptions options)
+    : lookup_(map.lookup(options.level)),
+      inv_cell_(1.0 / (map.cell_size() * static_cast<double>(1 << options.level))),
+      options_(options) {
+  scale_points(points, inv_cell_, options.stride, px_, py_);
+}
+
 FitnessValue FitnessEvaluator::evaluate(const Pose2& pose) const {
   FitnessValue out;
   const double ox = pose.x * inv_cell_, oy = pose.y * inv_cell_;
-  // A candidate far outside any possible map (or not finite) scores zero rather than
-  // overflowing the cell index conversion.
-  constexpr double kFar = 1e8;
-  if (!(std::abs(ox) < kFar && std::abs(oy) < kFar && std::isfinite(pose.theta))) return out;
+  if (beyond_any_map(ox, oy) || !std::isfinite(pose.theta)) return out;
   const auto c = static_cast<float>(std::cos(pose.theta));
   const auto s = static_cast<float>(std::sin(pose.theta));
   const auto fx = static_cast<float>(ox), fy = static_cast<float>(oy);
@@ -180,11 +190,7 @@ HeadingScorer::HeadingScorer(const GridMap& map, const ScanPoints& points, Fitne
       }
     }
   }
-  const auto step = static_cast<std::size_t>(std::max(options.stride, 1));
-  for (std::size_t i = 0; i < points.size(); i += step) {
-    px_.push_back(static_cast<float>(points.x[i] * inv_cell_));
-    py_.push_back(static_cast<float>(points.y[i] * inv_cell_));
-  }
+  scale_points(points, inv_cell_, options.stride, px_, py_);
   cpx_.resize(px_.size());
   spy_.resize(px_.size());
   spx_.resize(px_.size());
@@ -208,8 +214,7 @@ void HeadingScorer::set_heading(double theta) {
 FitnessValue HeadingScorer::evaluate(double x, double y) const {
   FitnessValue out;
   const double ox = x * inv_cell_, oy = y * inv_cell_;
-  constexpr double kFar = 1e8;  // as FitnessEvaluator::evaluate
-  if (!(std::abs(ox) < kFar && std::abs(oy) < kFar && heading_ok_)) return out;
+  if (beyond_any_map(ox, oy) || !heading_ok_) return out;
   const auto fx = static_cast<float>(ox), fy = static_cast<float>(oy);
   const std::size_t n = px_.size();
   const float* cells = cells_.data();
