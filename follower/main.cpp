@@ -208,6 +208,29 @@ int main(int argc, char** argv) {
     return std::chrono::duration<double>(Clock::now() - start).count();
   };
   double first_tile_s = -1.0, complete_s = -1.0;
+  // Nothing from any leader after this long: say what is likely wrong, once.
+  constexpr double kNoMapWarnS = 10.0;
+  bool warned_no_map = false;
+  auto warn_no_map = [&] {
+    const int matched = follow->matched_leaders();
+    if (matched == 0) {
+      spdlog::warn(
+          "no leader found in {:.0f} s on DDS domain {}{}: is a leader running with the same "
+          "domain id, a compatible --profile{} and a network path to this robot? (Over shared "
+          "memory, a process killed earlier on this host can also cause this: docs/faults.md, "
+          "'Shared memory and killed processes'.)",
+          kNoMapWarnS, domain, profile.empty() ? "" : " with profile " + profile,
+          secure_dir.empty() ? "" : " and certificates of the same CA");
+    } else {
+      spdlog::warn(
+          "matched {} leader map writer(s) but received nothing from them in {:.0f} s. Over "
+          "shared memory (localhost-shm.xml) this is what a process killed earlier on this host "
+          "leaves behind (Fast DDS 2.9 recreates the dead process's ports and the processes "
+          "still running keep writing to the old ones): restart the leader, or run every "
+          "program with deploy/fastdds/localhost-udp.xml",
+          matched, kNoMapWarnS);
+    }
+  };
   auto last_report = start;
   bool timed_out = false, scans_ended = false;
   Localizer localizer(lconfig);
@@ -432,6 +455,11 @@ int main(int argc, char** argv) {
     follow->spin_once(std::chrono::milliseconds(source ? 2 : 50));
     watch_leader();
     if (first_tile_s < 0 && follow->stats().tiles_applied > 0) first_tile_s = seconds_since_start();
+    if (!warned_no_map && follow->stats().tiles_received == 0 &&
+        follow->stats().meta_received == 0 && seconds_since_start() > kNoMapWarnS) {
+      warned_no_map = true;
+      warn_no_map();
+    }
     if (complete_s < 0 && follow->replica().complete()) {
       complete_s = seconds_since_start();
       spdlog::info("map complete: {} tiles after {:.2f} s", follow->replica().map().tile_count(),
