@@ -370,6 +370,10 @@ TEST(DdsProcessTest, LateJoinerThroughDiscoveryServer) {
     EXPECT_EQ(sub.wait_exit(milliseconds(3000)), std::optional<int>(0)) << sub.output();
     EXPECT_EQ(pub.stop(milliseconds(5000)), std::optional<int>(0)) << pub.output();
     std::cout << "[ measured ] discovery server: " << *result << "\n";
+    for (const Child* c : {&pub, &sub}) {  // the profile is UDP only (docs/faults.md)
+      EXPECT_TRUE(tagged(c->output(), "SHM ").empty()) << c->output();
+      EXPECT_FALSE(tagged(c->output(), "UDP ").empty()) << c->output();
+    }
     EXPECT_EQ(srv.stop(milliseconds(3000), SIGINT), std::optional<int>(0)) << srv.output();
     expect_shm_released({&pub, &sub, &srv});
   }
