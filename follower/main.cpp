@@ -223,11 +223,12 @@ int main(int argc, char** argv) {
           secure_dir.empty() ? "" : " and certificates of the same CA");
     } else {
       spdlog::warn(
-          "matched {} leader map writer(s) but received nothing from them in {:.0f} s. Over "
-          "shared memory (localhost-shm.xml) this is what a process killed earlier on this host "
-          "leaves behind (Fast DDS 2.9 recreates the dead process's ports and the processes "
-          "still running keep writing to the old ones): restart the leader, or run every "
-          "program with deploy/fastdds/localhost-udp.xml",
+          "matched {} leader map writer(s) but received nothing from them in {:.0f} s: "
+          "either the leader has not mapped a scan yet (is its scan source running?) or, over "
+          "shared memory (localhost-shm.xml), a process killed earlier on this host left it "
+          "writing to ports that no longer exist (Fast DDS 2.9; docs/faults.md, 'Shared memory "
+          "and killed processes'): restart the leader, or run every program with "
+          "deploy/fastdds/localhost-udp.xml",
           matched, kNoMapWarnS);
     }
   };
