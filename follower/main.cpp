@@ -17,6 +17,7 @@
 
 #include "app/dds_flags.hpp"
 #include "app/localise_params.hpp"
+#include "app/scan_source.hpp"
 #include "app/slam_params.hpp"
 #include "app/slam_run.hpp"
 #include "esfleet/core/localizer.hpp"
@@ -27,7 +28,6 @@
 #include "esfleet/dds/node.hpp"
 #include "esfleet/dds/writer.hpp"
 #include "map_follower.hpp"
-#include "scan_source.hpp"
 
 namespace {
 
@@ -161,20 +161,20 @@ int main(int argc, char** argv) {
 
   std::unique_ptr<dds::Node> node;
   std::unique_ptr<follower::MapFollower> follow;
-  std::unique_ptr<scans::ScanSource> source;
+  std::unique_ptr<app::ScanSource> source;
   std::unique_ptr<dds::PoseWriter> pose_writer;
-  scans::TopicScanSource* topic = nullptr;
+  app::TopicScanSource* topic = nullptr;
   try {
     if (!log_path.empty()) {
       std::vector<LaserScan> scans =
-          scans::read_log(log_path, reader_options, max_scans, lconfig.slam.use_odometry, g_stop);
+          app::read_log(log_path, reader_options, max_scans, lconfig.slam.use_odometry, g_stop);
       if (first_scan >= scans.size()) {
         throw std::invalid_argument("--first-scan " + std::to_string(first_scan) + ": " + log_path +
                                     " has only " + std::to_string(scans.size()) + " scans" +
                                     (max_scans > 0 ? " (with --max-scans)" : ""));
       }
       scans.erase(scans.begin(), scans.begin() + static_cast<std::ptrdiff_t>(first_scan));
-      source = std::make_unique<scans::LogScanSource>(std::move(scans), rate);
+      source = std::make_unique<app::LogScanSource>(std::move(scans), rate);
     }
   } catch (const std::exception& e) {
     spdlog::error("{}", e.what());
@@ -187,7 +187,7 @@ int main(int argc, char** argv) {
     local.pyramid_levels = std::max(lconfig.coarse_level, lconfig.mid_level);
     follow = std::make_unique<follower::MapFollower>(*node, map_id, local);
     if (!scan_robot.empty()) {
-      auto t = std::make_unique<scans::TopicScanSource>(*node, scan_robot, idle_exit, latest_only);
+      auto t = std::make_unique<app::TopicScanSource>(*node, scan_robot, idle_exit, latest_only);
       topic = t.get();
       source = std::move(t);
     }
@@ -513,7 +513,7 @@ int main(int argc, char** argv) {
     }
   }
   if (topic != nullptr) {
-    const scans::TopicScanStats t = topic->stats();
+    const app::TopicScanStats t = topic->stats();
     spdlog::info(
         "scan topic: {} received, {} malformed, {} missing (seq gaps), {} skipped for newer "
         "ones ({} while tracking)",

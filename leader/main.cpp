@@ -20,13 +20,13 @@
 
 #include "app/dds_flags.hpp"
 #include "app/param_table.hpp"
+#include "app/scan_source.hpp"
 #include "app/slam_params.hpp"
 #include "app/slam_run.hpp"
 #include "checkpoint.hpp"
 #include "esfleet/core/slam.hpp"
 #include "esfleet/dds/node.hpp"
 #include "map_publisher.hpp"
-#include "scan_source.hpp"
 
 namespace {
 
@@ -246,12 +246,12 @@ int main(int argc, char** argv) {
   // Destroyed in reverse: the scan source (its reader) and the publisher before the node.
   std::unique_ptr<dds::Node> node;
   std::unique_ptr<leader::MapPublisher> publisher;
-  std::unique_ptr<scans::ScanSource> source;
-  scans::TopicScanSource* topic = nullptr;
+  std::unique_ptr<app::ScanSource> source;
+  app::TopicScanSource* topic = nullptr;
   if (!log_path.empty()) {
     try {
       std::vector<LaserScan> scans =
-          scans::read_log(log_path, reader_options, max_scans, config.use_odometry, g_stop);
+          app::read_log(log_path, reader_options, max_scans, config.use_odometry, g_stop);
       if (resumed) {
         const std::size_t skip = resumed->info.scans;
         if (skip > scans.size()) {
@@ -266,7 +266,7 @@ int main(int argc, char** argv) {
         scans.erase(scans.begin(), scans.begin() + static_cast<std::ptrdiff_t>(skip));
         spdlog::info("continuing {} at scan {}", log_path, skip);
       }
-      source = std::make_unique<scans::LogScanSource>(std::move(scans), o.rate);
+      source = std::make_unique<app::LogScanSource>(std::move(scans), o.rate);
     } catch (const std::exception& e) {
       spdlog::error("{}", e.what());
       return 2;
@@ -289,7 +289,7 @@ int main(int argc, char** argv) {
                                    : TileEncoding::kMedZlib,
           leader::DeltaPolicy{o.full_every, o.full_period});
       if (!scan_robot.empty()) {
-        auto t = std::make_unique<scans::TopicScanSource>(*node, scan_robot, o.idle_exit);
+        auto t = std::make_unique<app::TopicScanSource>(*node, scan_robot, o.idle_exit);
         topic = t.get();
         source = std::move(t);
       }
@@ -376,7 +376,7 @@ int main(int argc, char** argv) {
     publisher->republish_all(slam.map());
     publish(false, 0.0f);
   }
-  const auto stats = scans::run_slam(
+  const auto stats = app::run_slam(
       slam, *source, max_scans, g_stop,
       [&](const LaserScan& scan, const SlamStep& step, std::size_t done) {
         if (!first_stamp) first_stamp = scan.stamp;
@@ -416,7 +416,7 @@ int main(int argc, char** argv) {
 
   nlohmann::json extra;
   if (topic) {
-    const scans::TopicScanStats t = topic->stats();
+    const app::TopicScanStats t = topic->stats();
     extra["scan_topic"] = {{"robot_id", scan_robot},      {"received", t.received},
                            {"malformed", t.malformed},    {"other_robots", t.other_robots},
                            {"seq_gaps", t.seq_gaps},      {"seq_restarts", t.seq_restarts},

@@ -1,4 +1,4 @@
-#include "scan_source.hpp"
+#include "app/scan_source.hpp"
 
 #include <spdlog/spdlog.h>
 
@@ -9,7 +9,7 @@
 
 #include "esfleet/dds/map_convert.hpp"
 
-namespace esfleet::scans {
+namespace esfleet::app {
 
 namespace {
 /// How often blocked waits look at the stop flag.
@@ -166,10 +166,10 @@ TopicScanStats TopicScanSource::stats() const {
   return s;
 }
 
-app::SlamRunStats run_slam(Slam& slam, ScanSource& source, std::size_t max_scans,
-                           const std::atomic<bool>& stop, const StepCallback& on_step) {
+SlamRunStats run_slam(Slam& slam, ScanSource& source, std::size_t max_scans,
+                      const std::atomic<bool>& stop, const StepCallback& on_step) {
   using Clock = std::chrono::steady_clock;
-  app::SlamRunStats stats;
+  SlamRunStats stats;
   stats.ms_per_scan.reserve(source.total());
   // Wall time from the first scan to the last one processed: not the wait for the first scan
   // on the topic, nor the idle time before the end.
@@ -193,4 +193,4 @@ app::SlamRunStats run_slam(Slam& slam, ScanSource& source, std::size_t max_scans
   return stats;
 }
 
-}  // namespace esfleet::scans
+}  // namespace esfleet::app

@@ -9,7 +9,7 @@ first scan at which a rule would declare a pose and whether that hypothesis was 
 search, so it declares more than the real runs do; compare rules against the default rule
 replayed, not against the benchmark's figures.
 
-Usage: tools/replay-declaration-rules.py TRACE [TRACE ...]
+Usage: bench/replay-declaration-rules.py TRACE [TRACE ...]
 Prints one row per rule: right / wrong / undeclared per trace and over all.
 """
 

@@ -24,7 +24,7 @@
 #include "esfleet/core/slam.hpp"
 #include "esfleet/dds/reader.hpp"
 
-namespace esfleet::scans {
+namespace esfleet::app {
 
 class ScanSource {
  public:
@@ -144,9 +144,9 @@ using StepCallback = std::function<void(const LaserScan&, const SlamStep&, std::
 
 /// Runs the scans of `source` through `slam` in order until the source ends, `max_scans` scans
 /// were processed (0 = no limit) or `stop` is set (then interrupted = true, unless the source
-/// had ended anyway). Statistics as app::SlamRunStats::record keeps them; wall_s runs from the
+/// had ended anyway). Statistics as SlamRunStats::record keeps them; wall_s runs from the
 /// first scan to the end of the last (without the wait for the first scan and the idle end).
-app::SlamRunStats run_slam(Slam& slam, ScanSource& source, std::size_t max_scans,
-                           const std::atomic<bool>& stop, const StepCallback& on_step = {});
+SlamRunStats run_slam(Slam& slam, ScanSource& source, std::size_t max_scans,
+                      const std::atomic<bool>& stop, const StepCallback& on_step = {});
 
-}  // namespace esfleet::scans
+}  // namespace esfleet::app
