@@ -7,7 +7,7 @@
 
 namespace esfleet::app {
 
-void add_localise_params(ParamTable& t, LocalizerConfig* c) {
+void add_localise_params(ParamTable& t, LocaliserConfig* c) {
   t.add_enum<GlobalSearch>(
       "localise_search", &c->global, {{"grid", GlobalSearch::kGrid}, {"es", GlobalSearch::kEs}},
       "global search: grid = coarse exhaustive scoring then ES refinement (ours); es = the ES "

@@ -138,7 +138,7 @@ int rank_near(const std::vector<Pose2>& poses, const Pose2& truth) {
 }
 
 /// --trace: where the reference stood in the last grid search; counts it into `r`.
-std::string trace_search(const Localizer::SearchStages& st, const Pose2& truth, StartResult& r,
+std::string trace_search(const Localiser::SearchStages& st, const Pose2& truth, StartResult& r,
                          float truth_coarse) {
   const int coarse = rank_near(st.coarse, truth);
   const int ranked = rank_near(st.ranked, truth);
@@ -192,7 +192,7 @@ constexpr double kNearPath = 1.0;
 using Reference = std::function<Pose2(std::size_t)>;
 
 /// One trace line: the leading hypothesis and the one nearest the reference.
-std::string trace_line(std::size_t scan, const LocalizerStep& step, const Localizer& loc,
+std::string trace_line(std::size_t scan, const LocaliserStep& step, const Localiser& loc,
                        const Pose2& truth) {
   const auto hyps = loc.hypotheses();
   char buf[512];
@@ -205,8 +205,8 @@ std::string trace_line(std::size_t scan, const LocalizerStep& step, const Locali
                     lead.xy, lead.theta_deg, static_cast<double>(step.value.agreement()),
                     step.value.known_share(), static_cast<double>(step.score));
   float top = 0.0f, second = 0.0f;
-  const Localizer::HypothesisView* near = nullptr;
-  const Localizer::HypothesisView* leader = nullptr;
+  const Localiser::HypothesisView* near = nullptr;
+  const Localiser::HypothesisView* leader = nullptr;
   double near_d = 1e9;
   for (const auto& h : hyps) {
     if (h.score > top) {
@@ -241,7 +241,7 @@ std::string trace_line(std::size_t scan, const LocalizerStep& step, const Locali
 }
 
 /// --trace-all: every hypothesis of the pool, "id:error m:error deg:hits:known:points".
-std::string trace_hypotheses(const Localizer& loc, const Pose2& truth) {
+std::string trace_hypotheses(const Localiser& loc, const Pose2& truth) {
   std::string out = "    pool";
   char buf[96];
   for (const auto& h : loc.hypotheses()) {
@@ -253,16 +253,16 @@ std::string trace_hypotheses(const Localizer& loc, const Pose2& truth) {
   return out + "\n";
 }
 
-StartResult run_start(const LocalizerConfig& config, const GridMap& map,
+StartResult run_start(const LocaliserConfig& config, const GridMap& map,
                       const std::vector<LaserScan>& scans, const Reference& ref, std::size_t start,
                       int budget, bool trace, bool trace_all) {
-  Localizer loc(config);
+  Localiser loc(config);
   loc.record_search_stages(trace);
   StartResult r;
   r.start = start;
   double cpu_ms = 0.0;
   for (std::size_t j = start; j < scans.size() && r.scans < budget; ++j) {
-    const LocalizerStep step = loc.process(map, scans[j]);
+    const LocaliserStep step = loc.process(map, scans[j]);
     cpu_ms += step.cpu_ms;
     ++r.scans;
     if (trace) {
@@ -526,7 +526,7 @@ int run_localise_bench(LocaliseBenchOptions& o) {
     std::atomic<int> done{0};
     std::mutex print_mutex;
     parallel_for(o.threads, starts.size(), [&](std::size_t i) {
-      LocalizerConfig c = o.config;
+      LocaliserConfig c = o.config;
       c.seed = o.seed * 1000003u + i;
       results[i] =
           run_start(c, map, scans, reference, starts[i], o.budget, !o.trace.empty(), o.trace_all);
@@ -627,14 +627,14 @@ int run_localise_bench(LocaliseBenchOptions& o) {
 
   // Tracking: one follower over the whole log in the whole-log map.
   {
-    Localizer loc(o.config);
+    Localiser loc(o.config);
     std::vector<TimedPose> track;
     std::size_t lost = 0;
     std::vector<double> cpu;
     for (const LaserScan& scan : scans) {
-      const LocalizerStep step = loc.process(full_map, scan);
+      const LocaliserStep step = loc.process(full_map, scan);
       if (step.lost) ++lost;
-      if (step.state == LocalizerState::kTracking) {
+      if (step.state == LocaliserState::kTracking) {
         track.push_back({scan.stamp, step.pose});
         cpu.push_back(step.cpu_ms);
       }
@@ -673,15 +673,15 @@ int run_localise_bench(LocaliseBenchOptions& o) {
     const std::size_t hi = scans.size() - kDrawTail;
     Rng kidnap_pick(o.seed * 1000u + 'k');
     for (int k = 0; k < o.kidnaps; ++k) {
-      LocalizerConfig c = o.config;
+      LocaliserConfig c = o.config;
       c.seed = o.seed * 7919u + static_cast<std::uint64_t>(k);
-      Localizer loc(c);
+      Localiser loc(c);
       std::size_t a = kidnap_pick.below(static_cast<std::uint32_t>(hi));
       bool tracking = false;
       int tracked = 0;
       for (std::size_t j = a; j < scans.size() && tracked < 20; ++j) {
-        const LocalizerStep s = loc.process(full_map, scans[j]);
-        tracking = s.state == LocalizerState::kTracking;
+        const LocaliserStep s = loc.process(full_map, scans[j]);
+        tracking = s.state == LocaliserState::kTracking;
         if (tracking) ++tracked;
         a = j;
       }
@@ -703,7 +703,7 @@ int run_localise_bench(LocaliseBenchOptions& o) {
         LaserScan scan = scans[j];
         scan.stamp = scans[a].stamp + (scans[j].stamp - scans[b].stamp) + 0.1;
         scan.odometry.reset();
-        const LocalizerStep s = loc.process(full_map, scan);
+        const LocaliserStep s = loc.process(full_map, scan);
         cpu += s.cpu_ms;
         if (s.lost && noticed < 0) noticed = static_cast<int>(j - b) + 1;
         if (s.declared) {

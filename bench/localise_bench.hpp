@@ -5,7 +5,7 @@
 
 #include "app/param_table.hpp"
 #include "esfleet/core/carmen_reader.hpp"
-#include "esfleet/core/localizer.hpp"
+#include "esfleet/core/localiser.hpp"
 
 namespace esfleet::bench {
 
@@ -32,7 +32,7 @@ struct LocaliseBenchOptions {
   /// The leader's use of odometry: "same" as the followers' (--odometry), "on" or "off" (a
   /// laser-only map with followers that read their odometry, or the other way round).
   std::string leader_odometry = "same";
-  LocalizerConfig config;
+  LocaliserConfig config;
   CarmenReaderOptions reader;
   app::ParamTable params;
 };

@@ -19,8 +19,8 @@ from collections import defaultdict
 
 LINE = re.compile(
     r"scan (\d+) (\w+)(?: G)? hyps \d+ lead err ([\d.]+) m ([\d.]+) deg .* rival ([\d.]+)")
-WINDOW = 4  # LocalizerConfig::confirm_scans: the scores are means over this many scans
-AMBIGUITY = 0.75  # LocalizerConfig::max_ambiguity (default)
+WINDOW = 4  # LocaliserConfig::confirm_scans: the scores are means over this many scans
+AMBIGUITY = 0.75  # LocaliserConfig::max_ambiguity (default)
 TOL_XY, TOL_DEG = 0.3, 5.0
 
 

@@ -20,7 +20,7 @@
 #include "app/scan_source.hpp"
 #include "app/slam_params.hpp"
 #include "app/slam_run.hpp"
-#include "esfleet/core/localizer.hpp"
+#include "esfleet/core/localiser.hpp"
 #include "esfleet/core/map_io.hpp"
 #include "esfleet/core/tile_codec.hpp"
 #include "esfleet/core/trajectory_io.hpp"
@@ -36,16 +36,16 @@ std::atomic<bool> g_save{false};
 extern "C" void on_signal(int) { g_stop.store(true); }
 extern "C" void on_save(int) { g_save.store(true); }
 
-std::uint8_t status_of(esfleet::LocalizerState s) {
-  using esfleet::LocalizerState;
+std::uint8_t status_of(esfleet::LocaliserState s) {
+  using esfleet::LocaliserState;
   switch (s) {
-    case LocalizerState::kWaitingForMap:
+    case LocaliserState::kWaitingForMap:
       return esfleet::msg::kStatusWaitingForMap;
-    case LocalizerState::kLocalising:
+    case LocaliserState::kLocalising:
       return esfleet::msg::kStatusLocalising;
-    case LocalizerState::kTracking:
+    case LocaliserState::kTracking:
       return esfleet::msg::kStatusTracking;
-    case LocalizerState::kLost:
+    case LocaliserState::kLost:
       return esfleet::msg::kStatusLost;
   }
   return esfleet::msg::kStatusLost;
@@ -135,7 +135,7 @@ int main(int argc, char** argv) {
   cli.add_option("--trajectory", trajectory_path,
                  "write the tracked poses (stamp x y theta per line) to this file at exit");
   app::ParamTable params;
-  LocalizerConfig lconfig;
+  LocaliserConfig lconfig;
   CarmenReaderOptions reader_options;
   app::add_slam_params(params, &lconfig.slam, &reader_options);
   app::add_localise_params(params, &lconfig);
@@ -234,10 +234,10 @@ int main(int argc, char** argv) {
   };
   auto last_report = start;
   bool timed_out = false, scans_ended = false;
-  Localizer localizer(lconfig);
+  Localiser localiser(lconfig);
   LocaliseStats ls;
   std::vector<TimedPose> trajectory;
-  LocalizerStep last_step;
+  LocaliserStep last_step;
   std::optional<std::uint32_t> epoch;
 
   // The leader's presence. Present from its first map summary; gone when DDS unmatches its tile
@@ -312,7 +312,7 @@ int main(int argc, char** argv) {
     const app::Summary tr = app::summarize(ls.tracking_cpu_ms);
     const app::Summary lag = app::summarize(ls.tracking_lag_ms);
     nlohmann::json j = {{"robot_id", robot_id},
-                        {"state", to_string(localizer.state())},
+                        {"state", to_string(localiser.state())},
                         {"scans", ls.scans},
                         {"scans_waiting_for_map", ls.scans_waiting_for_map},
                         {"declarations", ls.declarations},
@@ -409,17 +409,17 @@ int main(int argc, char** argv) {
     if (replica.has_map() && epoch && replica.epoch() != *epoch) {
       spdlog::warn("the leader's map changed (epoch {} -> {}): localising afresh", *epoch,
                    replica.epoch());
-      localizer.reset();
+      localiser.reset();
     }
     if (replica.has_map()) epoch = replica.epoch();
     static const GridMap kEmpty;
-    const LocalizerStep step = localizer.process(replica.has_map() ? replica.map() : kEmpty, scan);
+    const LocaliserStep step = localiser.process(replica.has_map() ? replica.map() : kEmpty, scan);
     last_step = step;
     ls.cpu_s_total += step.cpu_ms * 1e-3;
     if (step.global_search) ++ls.global_searches;
-    if (step.state == LocalizerState::kWaitingForMap) {
+    if (step.state == LocaliserState::kWaitingForMap) {
       ++ls.scans_waiting_for_map;
-    } else if (step.state != LocalizerState::kTracking || step.declared) {
+    } else if (step.state != LocaliserState::kTracking || step.declared) {
       ls.cpu_s_localising += step.cpu_ms * 1e-3;
       ++ls.scans_localising;
     }
@@ -442,7 +442,7 @@ int main(int argc, char** argv) {
       ++ls.lost_events;
       spdlog::warn("lost: the scans stopped matching the map; relocalising");
     }
-    if (step.state == LocalizerState::kTracking) {
+    if (step.state == LocaliserState::kTracking) {
       trajectory.push_back({scan.stamp, step.pose});
       if (!step.declared) ls.tracking_cpu_ms.push_back(step.cpu_ms);
     }
@@ -471,7 +471,7 @@ int main(int argc, char** argv) {
       // One scan at a time, then DDS again: tiles keep arriving while the robot localises.
       if (source->ready()) {
         const std::uint64_t dropped_before = topic != nullptr ? topic->stats().dropped : 0;
-        const bool was_tracking = localizer.state() == LocalizerState::kTracking;
+        const bool was_tracking = localiser.state() == LocaliserState::kTracking;
         if (auto scan = source->next(g_stop)) {
           process_scan(*scan);
           if (topic != nullptr && was_tracking) {
@@ -483,7 +483,7 @@ int main(int argc, char** argv) {
         } else if (source->ended()) {
           scans_ended = true;
           spdlog::info("scans ended after {} scans: state {}", ls.scans,
-                       to_string(localizer.state()));
+                       to_string(localiser.state()));
           break;
         }
       } else {

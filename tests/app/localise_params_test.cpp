@@ -38,7 +38,7 @@ TEST(ParseHint, RejectsMalformedTextNamingThePart) {
 }
 
 TEST(LocaliseParams, FlagsReachTheConfigAndBadValuesAreRefusedByValidation) {
-  LocalizerConfig c;
+  LocaliserConfig c;
   ParamTable t;
   add_localise_params(t, &c);
   CLI::App app;
@@ -61,7 +61,7 @@ TEST(LocaliseParams, FlagsReachTheConfigAndBadValuesAreRefusedByValidation) {
 }
 
 TEST(LocaliseParams, ACoarseScoreOutsideTheChoicesIsRefused) {
-  LocalizerConfig c;
+  LocaliserConfig c;
   ParamTable t;
   add_localise_params(t, &c);
   CLI::App app;

@@ -1,7 +1,7 @@
 #pragma once
 // One pose-tracking step against a fixed map: predict the pose of a new scan from the past
 // estimates (and odometry), search it with the (mu+1)-ES, polish it. The leader's SLAM (slam.hpp)
-// and the follower's localiser (localizer.hpp) share it, so a follower tracks exactly as the
+// and the follower's localiser (localiser.hpp) share it, so a follower tracks exactly as the
 // leader maps. The configuration is the SLAM's (SlamConfig): the ES parameters, prediction,
 // hypotheses, interpolation, prior.
 

@@ -1,4 +1,4 @@
-#include "esfleet/core/localizer.hpp"
+#include "esfleet/core/localiser.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -10,21 +10,21 @@
 
 namespace esfleet {
 
-const char* to_string(LocalizerState s) {
+const char* to_string(LocaliserState s) {
   switch (s) {
-    case LocalizerState::kWaitingForMap:
+    case LocaliserState::kWaitingForMap:
       return "waiting_for_map";
-    case LocalizerState::kLocalising:
+    case LocaliserState::kLocalising:
       return "localising";
-    case LocalizerState::kTracking:
+    case LocaliserState::kTracking:
       return "tracking";
-    case LocalizerState::kLost:
+    case LocaliserState::kLost:
       return "lost";
   }
   return "unknown";
 }
 
-void LocalizerConfig::validate() const {
+void LocaliserConfig::validate() const {
   slam.validate();
   auto check = [](bool ok, const char* what) {
     if (!ok) throw std::invalid_argument(what);
@@ -135,7 +135,7 @@ double median_range(const ScanPoints& points) {
 
 }  // namespace
 
-Localizer::Localizer(LocalizerConfig config)
+Localiser::Localiser(LocaliserConfig config)
     : config_(std::move(config)),
       es_(config_.slam.es),
       hypothesis_es_([this] {
@@ -148,8 +148,8 @@ Localizer::Localizer(LocalizerConfig config)
   research_wait_ = config_.research_every;
 }
 
-void Localizer::reset() {
-  state_ = LocalizerState::kWaitingForMap;
+void Localiser::reset() {
+  state_ = LocaliserState::kWaitingForMap;
   pool_.clear();
   scans_since_search_ = 0;
   research_wait_ = config_.research_every;
@@ -157,7 +157,7 @@ void Localizer::reset() {
   bad_streak_ = 0;
 }
 
-std::vector<Localizer::HypothesisView> Localizer::hypotheses() const {
+std::vector<Localiser::HypothesisView> Localiser::hypotheses() const {
   std::vector<HypothesisView> out;
   for (const Hypothesis& h : pool_) {
     out.push_back({h.id, h.motion.last.pose, h.score, h.good_streak, h.travel, h.value});
@@ -165,13 +165,13 @@ std::vector<Localizer::HypothesisView> Localizer::hypotheses() const {
   return out;
 }
 
-FitnessEvaluator Localizer::fine_evaluator(const GridMap& map, const ScanPoints& points) const {
+FitnessEvaluator Localiser::fine_evaluator(const GridMap& map, const ScanPoints& points) const {
   return FitnessEvaluator(
       map, points,
       slam_fitness_options(config_.slam, config_.slam.interpolation != Interpolation::kNone));
 }
 
-FitnessOptions Localizer::coarse_options(const GridMap& map, const ScanPoints& points) const {
+FitnessOptions Localiser::coarse_options(const GridMap& map, const ScanPoints& points) const {
   FitnessOptions o = slam_fitness_options(config_.slam, false);
   o.level = std::min(config_.coarse_level, map.pyramid_levels());
   o.stride = std::max(1, static_cast<int>(points.size()) / std::max(1, config_.coarse_points));
@@ -179,11 +179,11 @@ FitnessOptions Localizer::coarse_options(const GridMap& map, const ScanPoints& p
   return o;
 }
 
-bool Localizer::good(const FitnessValue& v) const {
+bool Localiser::good(const FitnessValue& v) const {
   return v.agreement() >= config_.min_agreement && v.known_share() >= config_.min_known;
 }
 
-std::vector<Pose2> Localizer::global_candidates(const GridMap& map, const ScanPoints& points,
+std::vector<Pose2> Localiser::global_candidates(const GridMap& map, const ScanPoints& points,
                                                 bool use_hint, GlobalSearch how) {
   const int level = std::min(config_.coarse_level, map.pyramid_levels());
   const double coarse_cell = map.cell_size() * static_cast<double>(1 << level);
@@ -228,7 +228,7 @@ std::vector<Pose2> Localizer::global_candidates(const GridMap& map, const ScanPo
   return grid_candidates(map, points, samples, step_xy, step_theta, theta0, span);
 }
 
-std::vector<Pose2> Localizer::grid_candidates(const GridMap& map, const ScanPoints& points,
+std::vector<Pose2> Localiser::grid_candidates(const GridMap& map, const ScanPoints& points,
                                               const std::vector<Pose2>& samples, double step_xy,
                                               double step_theta, double theta0, double span) {
   // The same scores as a FitnessEvaluator with these options, from a dense copy of the level
@@ -333,7 +333,7 @@ std::vector<Pose2> Localizer::grid_candidates(const GridMap& map, const ScanPoin
   return out;
 }
 
-std::vector<Pose2> Localizer::es_candidates(const GridMap& map, const ScanPoints& points,
+std::vector<Pose2> Localiser::es_candidates(const GridMap& map, const ScanPoints& points,
                                             const std::vector<Pose2>& samples, double theta0,
                                             double span) {
   // The paper's way: the initial population spread over free space and headings; the ES
@@ -371,7 +371,7 @@ std::vector<Pose2> Localizer::es_candidates(const GridMap& map, const ScanPoints
   return out;
 }
 
-void Localizer::score_scan(Hypothesis& h, const FitnessValue& v, const Pose2& before,
+void Localiser::score_scan(Hypothesis& h, const FitnessValue& v, const Pose2& before,
                            const Pose2& now) {
   h.value = v;
   ++h.scans;
@@ -395,23 +395,23 @@ void Localizer::score_scan(Hypothesis& h, const FitnessValue& v, const Pose2& be
   h.known = k / n;
 }
 
-bool Localizer::contradiction_route(const Hypothesis& h) const {
+bool Localiser::contradiction_route(const Hypothesis& h) const {
   return config_.contradiction_factor > 0.0 && h.good_streak >= config_.contradiction_min_streak &&
          h.agreement >= static_cast<float>(config_.contradiction_min_agreement) &&
          h.known >= static_cast<float>(config_.contradiction_min_known);
 }
 
-bool Localizer::contradicted(float rival, float own) const {
+bool Localiser::contradicted(float rival, float own) const {
   return rival >= static_cast<float>(config_.contradiction_factor) * own +
                       static_cast<float>(config_.contradiction_margin);
 }
 
-bool Localizer::clear_of(const Hypothesis& h, const Hypothesis& rival) const {
+bool Localiser::clear_of(const Hypothesis& h, const Hypothesis& rival) const {
   if (rival.score <= static_cast<float>(config_.max_ambiguity) * h.score) return true;
   return contradiction_route(h) && contradicted(rival.contradiction, h.contradiction);
 }
 
-void Localizer::add_hypotheses(const std::vector<Pose2>& poses, const GridMap& map,
+void Localiser::add_hypotheses(const std::vector<Pose2>& poses, const GridMap& map,
                                const ScanPoints& points, const LaserScan& scan) {
   const FitnessEvaluator eval = fine_evaluator(map, points);
   for (const Pose2& p : poses) {
@@ -429,8 +429,8 @@ void Localizer::add_hypotheses(const std::vector<Pose2>& poses, const GridMap& m
   }
 }
 
-void Localizer::localise(const GridMap& map, const ScanPoints& points, const LaserScan& scan,
-                         LocalizerStep& step) {
+void Localiser::localise(const GridMap& map, const ScanPoints& points, const LaserScan& scan,
+                         LocaliserStep& step) {
   ++searching_scans_;
   // Follow every hypothesis with the per-scan tracking step.
   for (Hypothesis& h : pool_) {
@@ -558,12 +558,12 @@ void Localizer::localise(const GridMap& map, const ScanPoints& points, const Las
   tracked_ = h;
   pool_.clear();
   bad_streak_ = 0;
-  state_ = LocalizerState::kTracking;
+  state_ = LocaliserState::kTracking;
   step.declared = true;
 }
 
-void Localizer::track(const GridMap& map, const ScanPoints& points, const LaserScan& scan,
-                      LocalizerStep& step) {
+void Localiser::track(const GridMap& map, const ScanPoints& points, const LaserScan& scan,
+                      LocaliserStep& step) {
   const TrackResult t = track_scan(config_.slam, es_, rng_, map, points, scan, tracked_.motion);
   tracked_.motion.previous = tracked_.motion.last;
   tracked_.motion.last = {scan.stamp, t.result.pose};
@@ -576,7 +576,7 @@ void Localizer::track(const GridMap& map, const ScanPoints& points, const LaserS
                    t.result.value.known_share() < config_.lost_known;
   bad_streak_ = bad ? bad_streak_ + 1 : 0;
   if (bad_streak_ >= config_.lost_scans) {
-    state_ = LocalizerState::kLost;
+    state_ = LocaliserState::kLost;
     step.lost = true;
     pool_.clear();
     scans_since_search_ = 0;
@@ -585,18 +585,18 @@ void Localizer::track(const GridMap& map, const ScanPoints& points, const LaserS
   }
 }
 
-LocalizerStep Localizer::process(const GridMap& map, const LaserScan& scan) {
+LocaliserStep Localiser::process(const GridMap& map, const LaserScan& scan) {
   const double t0 = thread_cpu_ms();
-  LocalizerStep step;
+  LocaliserStep step;
   if (map.tile_count() == 0) {
-    state_ = LocalizerState::kWaitingForMap;
+    state_ = LocaliserState::kWaitingForMap;
   } else {
-    if (state_ == LocalizerState::kWaitingForMap) state_ = LocalizerState::kLocalising;
+    if (state_ == LocaliserState::kWaitingForMap) state_ = LocaliserState::kLocalising;
     const ScanPoints points = prepare_scan(scan, config_.slam.min_range, config_.slam.max_range);
     if (points.size() == 0) {
       // Nothing to match: keep the state, report the last pose.
-      step.pose = state_ == LocalizerState::kTracking ? tracked_.motion.last.pose : Pose2{};
-    } else if (state_ == LocalizerState::kTracking) {
+      step.pose = state_ == LocaliserState::kTracking ? tracked_.motion.last.pose : Pose2{};
+    } else if (state_ == LocaliserState::kTracking) {
       track(map, points, scan, step);
     } else {
       localise(map, points, scan, step);

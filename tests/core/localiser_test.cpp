@@ -1,7 +1,7 @@
 // The follower's localiser on scans ray-cast in synthetic rooms whose true poses the test knows:
 // global and hinted localisation, a wrong hint, a symmetric room (must not guess), kidnapping.
 
-#include "esfleet/core/localizer.hpp"
+#include "esfleet/core/localiser.hpp"
 
 #include <gtest/gtest.h>
 
@@ -70,11 +70,11 @@ struct Outcome {
   Pose2 truth;
 };
 
-Outcome localise(Localizer& loc, const GridMap& map, const std::vector<Segment>& world,
+Outcome localise(Localiser& loc, const GridMap& map, const std::vector<Segment>& world,
                  const std::vector<Pose2>& path, double t0 = 0.0) {
   Outcome r;
   for (std::size_t i = 0; i < path.size(); ++i) {
-    const LocalizerStep s =
+    const LocaliserStep s =
         loc.process(map, make_scan(world, path[i], t0 + 0.2 * static_cast<double>(i)));
     if (s.declared) {
       r.declared_at = static_cast<int>(i);
@@ -86,54 +86,54 @@ Outcome localise(Localizer& loc, const GridMap& map, const std::vector<Segment>&
   return r;
 }
 
-TEST(Localizer, WaitsForAMapThenLocalisesGlobally) {
+TEST(Localiser, WaitsForAMapThenLocalisesGlobally) {
   const auto world = asymmetric_room();
   const GridMap map = map_of(world, 12, 8);
   for (std::uint64_t seed = 1; seed <= 3; ++seed) {
-    LocalizerConfig c;
+    LocaliserConfig c;
     c.seed = seed;
-    Localizer loc(c);
+    Localiser loc(c);
     const GridMap empty;
     EXPECT_EQ(loc.process(empty, make_scan(world, {6, 4, 0})).state,
-              LocalizerState::kWaitingForMap);
+              LocaliserState::kWaitingForMap);
     const Outcome r = localise(loc, map, world, drive({2.0, 1.5, 0.3}, 40, 0.1), 1.0);
     ASSERT_GE(r.declared_at, 0) << "seed " << seed << ": no pose declared";
     EXPECT_TRUE(near(r.declared, r.truth, 0.1, 3.0))
         << "seed " << seed << ": declared (" << r.declared.x << ", " << r.declared.y << ", "
         << r.declared.theta << "), truth (" << r.truth.x << ", " << r.truth.y << ", "
         << r.truth.theta << ")";
-    EXPECT_EQ(loc.state(), LocalizerState::kTracking);
+    EXPECT_EQ(loc.state(), LocaliserState::kTracking);
     // It waited for motion and several matching scans before declaring.
     EXPECT_GE(r.declared_at, c.confirm_scans - 1) << "seed " << seed;
   }
 }
 
-TEST(Localizer, TheEsSearchOfThePaperAlsoLocalises) {
+TEST(Localiser, TheEsSearchOfThePaperAlsoLocalises) {
   const auto world = asymmetric_room();
   const GridMap map = map_of(world, 12, 8);
-  LocalizerConfig c;
+  LocaliserConfig c;
   c.global = GlobalSearch::kEs;
   c.seed = 5;
-  Localizer loc(c);
+  Localiser loc(c);
   const Outcome r = localise(loc, map, world, drive({9.0, 6.0, -2.5}, 60, 0.1));
   ASSERT_GE(r.declared_at, 0) << "seed 5: no pose declared";
   EXPECT_TRUE(near(r.declared, r.truth, 0.1, 3.0)) << "seed 5";
 }
 
-TEST(Localizer, RecordsTheStagesOfItsGridSearchOnlyWhenAsked) {
+TEST(Localiser, RecordsTheStagesOfItsGridSearchOnlyWhenAsked) {
   const auto world = asymmetric_room();
   const GridMap map = map_of(world, 12, 8);
   const Pose2 truth{2.0, 1.5, 0.3};
-  LocalizerConfig c;
+  LocaliserConfig c;
   c.seed = 2;
-  Localizer quiet(c);
+  Localiser quiet(c);
   ASSERT_TRUE(quiet.process(map, make_scan(world, truth)).global_search);
   EXPECT_TRUE(quiet.last_search().coarse.empty());
 
-  Localizer loc(c);
+  Localiser loc(c);
   loc.record_search_stages(true);
   ASSERT_TRUE(loc.process(map, make_scan(world, truth)).global_search);
-  const Localizer::SearchStages& st = loc.last_search();
+  const Localiser::SearchStages& st = loc.last_search();
   ASSERT_FALSE(st.candidates.empty());
   EXPECT_LE(st.candidates.size(), static_cast<std::size_t>(c.candidates));
   EXPECT_LE(st.coarse.size(), static_cast<std::size_t>(c.coarse_keep));
@@ -158,18 +158,18 @@ TEST(Localizer, RecordsTheStagesOfItsGridSearchOnlyWhenAsked) {
   }
 }
 
-TEST(Localizer, TheCoarseScoreIsThePenalisedFitnessOrTheSumOfMapValues) {
+TEST(Localiser, TheCoarseScoreIsThePenalisedFitnessOrTheSumOfMapValues) {
   const auto world = asymmetric_room();
   const GridMap map = map_of(world, 12, 8);
   const LaserScan scan = make_scan(world, {2.0, 1.5, 0.3});
   for (const bool penalty : {true, false}) {
-    LocalizerConfig c;
+    LocaliserConfig c;
     c.seed = 2;
     c.coarse_score = penalty ? CoarseScore::kFitness : CoarseScore::kSum;
-    Localizer loc(c);
+    Localiser loc(c);
     loc.record_search_stages(true);
     ASSERT_TRUE(loc.process(map, scan).global_search);
-    const Localizer::SearchStages& st = loc.last_search();
+    const Localiser::SearchStages& st = loc.last_search();
     ASSERT_FALSE(st.samples.empty());
     const ScanPoints pts = prepare_scan(scan, c.slam.min_range, c.slam.max_range);
     // Each sample's score is the fitness (Condition 1 or 2) on the coarse level at the heading
@@ -190,16 +190,16 @@ TEST(Localizer, TheCoarseScoreIsThePenalisedFitnessOrTheSumOfMapValues) {
   }
 }
 
-TEST(Localizer, CoarseScoreBothKeepsTheBestPosesOfEachRanking) {
+TEST(Localiser, CoarseScoreBothKeepsTheBestPosesOfEachRanking) {
   const auto world = asymmetric_room();
   const GridMap map = map_of(world, 12, 8);
   const LaserScan scan = make_scan(world, {2.0, 1.5, 0.3});
   auto coarse_of = [&](CoarseScore by) {
-    LocalizerConfig c;
+    LocaliserConfig c;
     c.seed = 2;
     c.coarse_keep = 40;  // fewer than the room's distinct coarse poses: the rankings differ
     c.coarse_score = by;
-    Localizer loc(c);
+    Localiser loc(c);
     loc.record_search_stages(true);
     loc.process(map, scan);
     return loc.last_search().coarse;
@@ -234,12 +234,12 @@ TEST(Localizer, CoarseScoreBothKeepsTheBestPosesOfEachRanking) {
   EXPECT_GE(beside, 38) << "of 40";
 }
 
-TEST(Localizer, HypothesisIdsAreDistinctAndKeptWhileFollowed) {
+TEST(Localiser, HypothesisIdsAreDistinctAndKeptWhileFollowed) {
   const auto world = asymmetric_room();
   const GridMap map = map_of(world, 12, 8);
-  LocalizerConfig c;
+  LocaliserConfig c;
   c.seed = 3;
-  Localizer loc(c);
+  Localiser loc(c);
   const std::vector<Pose2> path = drive({2.0, 1.5, 0.3}, 3, 0.1);
   loc.process(map, make_scan(world, path[0], 0.0));
   const auto first = loc.hypotheses();
@@ -250,7 +250,7 @@ TEST(Localizer, HypothesisIdsAreDistinctAndKeptWhileFollowed) {
   }
   // The next scan follows the same hypotheses (some may merge or drop out): no new ids without
   // a new search.
-  const LocalizerStep s = loc.process(map, make_scan(world, path[1], 0.2));
+  const LocaliserStep s = loc.process(map, make_scan(world, path[1], 0.2));
   ASSERT_FALSE(s.global_search);
   for (const auto& h : loc.hypotheses()) {
     EXPECT_TRUE(
@@ -259,18 +259,18 @@ TEST(Localizer, HypothesisIdsAreDistinctAndKeptWhileFollowed) {
   }
 }
 
-TEST(Localizer, TracksAfterDeclaringAndKeepsTracking) {
+TEST(Localiser, TracksAfterDeclaringAndKeepsTracking) {
   const auto world = asymmetric_room();
   const GridMap map = map_of(world, 12, 8);
-  LocalizerConfig c;
+  LocaliserConfig c;
   c.seed = 2;
-  Localizer loc(c);
+  Localiser loc(c);
   const auto path = drive({2.0, 1.5, 0.3}, 70, 0.1);
   bool tracking = false;
   for (std::size_t i = 0; i < path.size(); ++i) {
-    const LocalizerStep s =
+    const LocaliserStep s =
         loc.process(map, make_scan(world, path[i], 0.2 * static_cast<double>(i)));
-    if (s.state == LocalizerState::kTracking) {
+    if (s.state == LocaliserState::kTracking) {
       tracking = true;
       EXPECT_TRUE(near(s.pose, path[i], 0.05, 1.0)) << "scan " << i << ", seed 2";
       EXPECT_FALSE(s.lost);
@@ -279,15 +279,15 @@ TEST(Localizer, TracksAfterDeclaringAndKeepsTracking) {
   EXPECT_TRUE(tracking);
 }
 
-TEST(Localizer, AHintNearTheTruthLocalisesAndAWrongOneDeclaresNothingWrong) {
+TEST(Localiser, AHintNearTheTruthLocalisesAndAWrongOneDeclaresNothingWrong) {
   const auto world = asymmetric_room();
   const GridMap map = map_of(world, 12, 8);
   const auto path = drive({2.0, 1.5, 0.3}, 40, 0.1);
   {
-    LocalizerConfig c;
+    LocaliserConfig c;
     c.seed = 3;
     c.hint = PoseHint{{2.3, 1.3, 0.2}, 1.0, 20.0};
-    Localizer loc(c);
+    Localiser loc(c);
     const Outcome r = localise(loc, map, world, path);
     ASSERT_GE(r.declared_at, 0);
     EXPECT_TRUE(near(r.declared, r.truth, 0.1, 3.0));
@@ -295,11 +295,11 @@ TEST(Localizer, AHintNearTheTruthLocalisesAndAWrongOneDeclaresNothingWrong) {
   {
     // A hint 6 m away: the search around it must not settle on a wrong pose. (After
     // hint_scans it widens to the global search, which may then find the right one.)
-    LocalizerConfig c;
+    LocaliserConfig c;
     c.seed = 3;
     c.hint = PoseHint{{9.0, 6.0, 2.0}, 1.0, 20.0};
     c.hint_scans = 1000;
-    Localizer loc(c);
+    Localiser loc(c);
     const Outcome r = localise(loc, map, world, path);
     if (r.declared_at >= 0) {
       EXPECT_TRUE(near(r.declared, r.truth, 0.3, 5.0)) << "wrong pose declared from a wrong hint";
@@ -307,13 +307,13 @@ TEST(Localizer, AHintNearTheTruthLocalisesAndAWrongOneDeclaresNothingWrong) {
   }
 }
 
-TEST(Localizer, DoesNotGuessInASymmetricRoom) {
+TEST(Localiser, DoesNotGuessInASymmetricRoom) {
   const std::vector<Segment> world = twin_pillar_room();
   const GridMap map = map_of(world, 10, 6);
   for (std::uint64_t seed = 1; seed <= 2; ++seed) {
-    LocalizerConfig c;
+    LocaliserConfig c;
     c.seed = seed;
-    Localizer loc(c);
+    Localiser loc(c);
     const Outcome r = localise(loc, map, world, drive({1.5, 3.0, 0.2}, 40, 0.1));
     if (r.declared_at >= 0) {
       // Declaring is allowed only if it happens to be right; the twin must not be taken.
@@ -322,19 +322,19 @@ TEST(Localizer, DoesNotGuessInASymmetricRoom) {
   }
 }
 
-TEST(Localizer, NoticesAKidnapAndRelocalises) {
+TEST(Localiser, NoticesAKidnapAndRelocalises) {
   const auto world = asymmetric_room();
   const GridMap map = map_of(world, 12, 8);
-  LocalizerConfig c;
+  LocaliserConfig c;
   c.seed = 4;
-  Localizer loc(c);
+  Localiser loc(c);
   const Outcome first = localise(loc, map, world, drive({2.0, 1.5, 0.3}, 40, 0.1));
   ASSERT_GE(first.declared_at, 0);
   // Carried to the other side of the room, facing the other way.
   const auto there = drive({10.5, 6.5, -2.4}, 60, 0.08);
   int lost_at = -1, again_at = -1;
   for (std::size_t i = 0; i < there.size(); ++i) {
-    const LocalizerStep s =
+    const LocaliserStep s =
         loc.process(map, make_scan(world, there[i], 100.0 + 0.2 * static_cast<double>(i)));
     if (s.lost && lost_at < 0) lost_at = static_cast<int>(i);
     if (s.declared) {
@@ -348,7 +348,7 @@ TEST(Localizer, NoticesAKidnapAndRelocalises) {
   EXPECT_GT(again_at, lost_at) << "not relocalised";
 }
 
-TEST(Localizer, ContradictionIsTheShareOfEndPointsOnKnownFreeCells) {
+TEST(Localiser, ContradictionIsTheShareOfEndPointsOnKnownFreeCells) {
   FitnessValue v;
   EXPECT_EQ(contradiction(v), 0.0f);  // no end points
   v.n_points = 200;
@@ -358,7 +358,7 @@ TEST(Localizer, ContradictionIsTheShareOfEndPointsOnKnownFreeCells) {
   EXPECT_FLOAT_EQ(evidence(v), 120.0f / 200.0f);
 }
 
-TEST(Localizer, TheContradictionRouteLocalisesAndStillDoesNotGuessATwin) {
+TEST(Localiser, TheContradictionRouteLocalisesAndStillDoesNotGuessATwin) {
   // The route clears a rival only on many more end points in known free space; a twin pose
   // has exactly as many, so the symmetric room must stay undeclared or right.
   const auto world = asymmetric_room();
@@ -366,15 +366,15 @@ TEST(Localizer, TheContradictionRouteLocalisesAndStillDoesNotGuessATwin) {
   const std::vector<Segment> twin_world = twin_pillar_room();
   const GridMap twin_map = map_of(twin_world, 10, 6);
   for (std::uint64_t seed = 1; seed <= 2; ++seed) {
-    LocalizerConfig c;
+    LocaliserConfig c;
     c.seed = seed;
     c.contradiction_factor = 2.0;
     c.contradiction_min_streak = 4;
-    Localizer loc(c);
+    Localiser loc(c);
     const Outcome r = localise(loc, map, world, drive({2.0, 1.5, 0.3}, 40, 0.1));
     ASSERT_GE(r.declared_at, 0) << "seed " << seed << ": no pose declared";
     EXPECT_TRUE(near(r.declared, r.truth, 0.1, 3.0)) << "seed " << seed;
-    Localizer twin(c);
+    Localiser twin(c);
     const Outcome t = localise(twin, twin_map, twin_world, drive({1.5, 3.0, 0.2}, 40, 0.1));
     if (t.declared_at >= 0) {
       EXPECT_TRUE(near(t.declared, t.truth, 0.3, 5.0)) << "seed " << seed << ": wrong twin";
@@ -382,28 +382,28 @@ TEST(Localizer, TheContradictionRouteLocalisesAndStillDoesNotGuessATwin) {
   }
 }
 
-TEST(Localizer, ConfigValidationNamesTheField) {
-  LocalizerConfig c;
+TEST(Localiser, ConfigValidationNamesTheField) {
+  LocaliserConfig c;
   c.candidates = 0;
   try {
-    Localizer loc(c);
+    Localiser loc(c);
     FAIL() << "no throw";
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("localise.candidates"), std::string::npos) << e.what();
   }
-  LocalizerConfig h;
+  LocaliserConfig h;
   h.hint = PoseHint{{0, 0, 0}, -1.0, 10.0};
-  EXPECT_THROW(Localizer{h}, std::invalid_argument);
-  LocalizerConfig k;
+  EXPECT_THROW(Localiser{h}, std::invalid_argument);
+  LocaliserConfig k;
   k.contradiction_factor = -1.0;
-  EXPECT_THROW(Localizer{k}, std::invalid_argument);
+  EXPECT_THROW(Localiser{k}, std::invalid_argument);
   k.contradiction_factor = 2.0;
   k.contradiction_min_streak = 0;
-  EXPECT_THROW(Localizer{k}, std::invalid_argument);
-  LocalizerConfig r;
+  EXPECT_THROW(Localiser{k}, std::invalid_argument);
+  LocaliserConfig r;
   r.research_every_max = r.research_every - 1;
   try {
-    Localizer loc(r);
+    Localiser loc(r);
     FAIL() << "no throw";
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("localise.research_every_max"), std::string::npos)
@@ -414,7 +414,7 @@ TEST(Localizer, ConfigValidationNamesTheField) {
 /// The scans at which a localiser searched globally over `n` scans from a round room of
 /// 1.6 m radius, which the map of the rectangular room does not hold: no pose explains a scan
 /// there well.
-std::vector<int> searches_where_nothing_matches(const LocalizerConfig& c, int n) {
+std::vector<int> searches_where_nothing_matches(const LocaliserConfig& c, int n) {
   const GridMap map = map_of(asymmetric_room(), 12, 8);
   std::vector<Segment> round;
   constexpr int kSides = 36;
@@ -423,19 +423,19 @@ std::vector<int> searches_where_nothing_matches(const LocalizerConfig& c, int n)
                  b = 2.0 * std::numbers::pi * (k + 1) / kSides;
     round.push_back({1.6 * std::cos(a), 1.6 * std::sin(a), 1.6 * std::cos(b), 1.6 * std::sin(b)});
   }
-  Localizer loc(c);
+  Localiser loc(c);
   std::vector<int> at;
   for (int i = 0; i < n; ++i) {
     const Pose2 p{0.3, 0.0, 0.05 * i};  // turning on the spot
-    const LocalizerStep s = loc.process(map, make_scan(round, p, 0.2 * i));
+    const LocaliserStep s = loc.process(map, make_scan(round, p, 0.2 * i));
     EXPECT_FALSE(s.declared) << "declared a pose from a room the map does not hold, scan " << i;
     if (s.global_search) at.push_back(i);
   }
   return at;
 }
 
-TEST(Localizer, WaitsLongerBetweenFruitlessGlobalSearches) {
-  LocalizerConfig c;
+TEST(Localiser, WaitsLongerBetweenFruitlessGlobalSearches) {
+  LocaliserConfig c;
   c.seed = 3;
   const std::vector<int> backoff = searches_where_nothing_matches(c, 100);
   // Waits of 5, 10, then 20 scans (research_every, doubled up to research_every_max).

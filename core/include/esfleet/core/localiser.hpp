@@ -13,7 +13,7 @@
 //     leader (tracking.hpp). A pose is declared only when one hypothesis has matched the map
 //     well (agreement, known share) on `confirm_scans` consecutive scans, the robot has moved,
 //     and no distinct rival scores close to it (a corridor or a symmetric room) unless the map
-//     contradicts that rival far more often (the contradiction route, LocalizerConfig).
+//     contradicts that rival far more often (the contradiction route, LocaliserConfig).
 //  3. Tracking: the per-scan step on the declared hypothesis. When the match collapses for
 //     `lost_scans` scans the localiser reports lost and searches globally again (kidnap).
 //
@@ -35,13 +35,13 @@
 
 namespace esfleet {
 
-enum class LocalizerState : std::uint8_t {
+enum class LocaliserState : std::uint8_t {
   kWaitingForMap,  ///< no map tiles yet
   kLocalising,     ///< searching, nothing declared yet
   kTracking,       ///< pose declared and followed
   kLost,           ///< was tracking, lost the match, searching again
 };
-const char* to_string(LocalizerState s);
+const char* to_string(LocaliserState s);
 
 enum class GlobalSearch : std::uint8_t {
   kGrid,  ///< coarse exhaustive scoring, then ES refinement of the best (ours, default)
@@ -70,7 +70,7 @@ struct PoseHint {
   double angle_deg = 30.0;
 };
 
-struct LocalizerConfig {
+struct LocaliserConfig {
   /// Tracking parameters: the leader's SLAM configuration (ES, prediction, fitness); its map,
   /// insertion and loop-closure settings are not used.
   SlamConfig slam;
@@ -149,8 +149,8 @@ struct LocalizerConfig {
 };
 
 /// What happened to one scan.
-struct LocalizerStep {
-  LocalizerState state = LocalizerState::kWaitingForMap;
+struct LocaliserStep {
+  LocaliserState state = LocaliserState::kWaitingForMap;
   bool declared = false;  ///< the pose was declared at this scan (state became kTracking)
   bool lost = false;      ///< tracking was lost at this scan
   Pose2 pose;             ///< tracking: the pose; localising: the leading hypothesis (if any)
@@ -161,15 +161,15 @@ struct LocalizerStep {
   double cpu_ms = 0.0;         ///< thread CPU time spent on this scan
 };
 
-class Localizer {
+class Localiser {
  public:
-  explicit Localizer(LocalizerConfig config);
+  explicit Localiser(LocaliserConfig config);
 
   /// Processes one scan against `map` (read only during the call).
-  LocalizerStep process(const GridMap& map, const LaserScan& scan);
+  LocaliserStep process(const GridMap& map, const LaserScan& scan);
 
-  LocalizerState state() const { return state_; }
-  const LocalizerConfig& config() const { return config_; }
+  LocaliserState state() const { return state_; }
+  const LocaliserConfig& config() const { return config_; }
   /// Forget everything and search globally again (e.g. a new map epoch).
   void reset();
 
@@ -241,15 +241,15 @@ class Localizer {
   /// The full-resolution evaluator hypotheses are scored with (the SLAM's fitness options).
   FitnessEvaluator fine_evaluator(const GridMap& map, const ScanPoints& points) const;
   void localise(const GridMap& map, const ScanPoints& points, const LaserScan& scan,
-                LocalizerStep& step);
+                LocaliserStep& step);
   void track(const GridMap& map, const ScanPoints& points, const LaserScan& scan,
-             LocalizerStep& step);
+             LocaliserStep& step);
 
-  LocalizerConfig config_;
+  LocaliserConfig config_;
   EvolutionStrategy es_;
   EvolutionStrategy hypothesis_es_;
   Rng rng_;
-  LocalizerState state_ = LocalizerState::kWaitingForMap;
+  LocaliserState state_ = LocaliserState::kWaitingForMap;
   std::vector<Hypothesis> pool_;
   int scans_since_search_ = 0;
   int research_wait_ = 0;    ///< scans to the next global search while none matches well
