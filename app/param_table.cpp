@@ -54,11 +54,12 @@ std::string show_double(double v) {
 
 }  // namespace
 
-void ParamTable::add(std::string name, std::string help,
+void ParamTable::add(std::string name, std::string type, std::string help,
                      std::function<void(const std::string&)> set,
                      std::function<std::string()> get) {
   Param p;
   p.name = std::move(name);
+  p.type = std::move(type);
   p.help = std::move(help);
   p.set = std::move(set);
   p.get = std::move(get);
@@ -73,31 +74,32 @@ ParamTable::Param* ParamTable::find(const std::string& name) {
 
 void ParamTable::add_double(const std::string& name, double* field, const std::string& help) {
   add(
-      name, help, [field](const std::string& s) { *field = parse_double(s); },
+      name, "FLOAT", help, [field](const std::string& s) { *field = parse_double(s); },
       [field] { return show_double(*field); });
 }
 
 void ParamTable::add_float(const std::string& name, float* field, const std::string& help) {
   add(
-      name, help, [field](const std::string& s) { *field = static_cast<float>(parse_double(s)); },
+      name, "FLOAT", help,
+      [field](const std::string& s) { *field = static_cast<float>(parse_double(s)); },
       [field] { return show_double(*field); });
 }
 
 void ParamTable::add_int(const std::string& name, int* field, const std::string& help) {
   add(
-      name, help, [field](const std::string& s) { *field = parse_int<int>(s); },
+      name, "INT", help, [field](const std::string& s) { *field = parse_int<int>(s); },
       [field] { return std::to_string(*field); });
 }
 
 void ParamTable::add_u64(const std::string& name, std::uint64_t* field, const std::string& help) {
   add(
-      name, help, [field](const std::string& s) { *field = parse_int<std::uint64_t>(s); },
+      name, "UINT", help, [field](const std::string& s) { *field = parse_int<std::uint64_t>(s); },
       [field] { return std::to_string(*field); });
 }
 
 void ParamTable::add_switch(const std::string& name, bool* field, const std::string& help) {
   add(
-      name, help + " (on|off)",
+      name, "on|off", help,
       [field](const std::string& s) {
         const std::string t = trimmed(s);
         if (t == "on" || t == "true" || t == "yes" || t == "1") {
@@ -117,7 +119,7 @@ void ParamTable::add_choice(const std::string& name, std::vector<std::string> ch
   std::string list;
   for (const auto& c : choices) list += (list.empty() ? "" : "|") + c;
   add(
-      name, help + " (" + list + ")",
+      name, list, help,
       [choices, set, list](const std::string& s) {
         const std::string t = trimmed(s);
         if (std::find(choices.begin(), choices.end(), t) == choices.end()) {
@@ -136,6 +138,7 @@ void ParamTable::bind(CLI::App& app, const std::string& group) {
       ->group(group);
   for (Param& p : params_) {
     p.option = app.add_option("--" + dashed(p.name), p.cli_value, p.help)
+                   ->type_name(p.type)
                    ->default_str(p.get())
                    ->group(group);
   }

@@ -63,14 +63,16 @@ class ParamTable {
  private:
   struct Param {
     std::string name;
+    std::string type;
     std::string help;
     std::function<void(const std::string&)> set;  // throws std::invalid_argument
     std::function<std::string()> get;
     std::string cli_value;
     CLI::Option* option = nullptr;
   };
-  void add(std::string name, std::string help, std::function<void(const std::string&)> set,
-           std::function<std::string()> get);
+  /// `type` is what --help shows for the value (FLOAT, INT, on|off, ...).
+  void add(std::string name, std::string type, std::string help,
+           std::function<void(const std::string&)> set, std::function<std::string()> get);
   Param* find(const std::string& name);
 
   std::vector<Param> params_;
