@@ -7,7 +7,7 @@
 #include <thread>
 #include <utility>
 
-#include "esfleet/dds/map_convert.hpp"
+#include "esfleet/dds/from_msg.hpp"
 
 namespace esfleet::app {
 

@@ -24,10 +24,10 @@
 #include "esfleet/core/map_io.hpp"
 #include "esfleet/core/tile_codec.hpp"
 #include "esfleet/core/trajectory_io.hpp"
-#include "esfleet/dds/map_convert.hpp"
 #include "esfleet/dds/node.hpp"
+#include "esfleet/dds/to_msg.hpp"
 #include "esfleet/dds/writer.hpp"
-#include "map_follower.hpp"
+#include "map_subscriber.hpp"
 
 namespace {
 
@@ -160,7 +160,7 @@ int main(int argc, char** argv) {
   std::signal(SIGUSR1, on_save);
 
   std::unique_ptr<dds::Node> node;
-  std::unique_ptr<follower::MapFollower> follow;
+  std::unique_ptr<follower::MapSubscriber> follow;
   std::unique_ptr<app::ScanSource> source;
   std::unique_ptr<dds::PoseWriter> pose_writer;
   app::TopicScanSource* topic = nullptr;
@@ -185,7 +185,7 @@ int main(int argc, char** argv) {
         dds::NodeOptions{domain, profile, "esfleet-follower", secure_dir});
     GridMapConfig local;
     local.pyramid_levels = std::max(lconfig.coarse_level, lconfig.mid_level);
-    follow = std::make_unique<follower::MapFollower>(*node, map_id, local);
+    follow = std::make_unique<follower::MapSubscriber>(*node, map_id, local);
     if (!scan_robot.empty()) {
       auto t = std::make_unique<app::TopicScanSource>(*node, scan_robot, idle_exit, latest_only);
       topic = t.get();
@@ -279,7 +279,7 @@ int main(int argc, char** argv) {
     if (matched > 0) leader.matched_seen = true;
     const double silent = std::chrono::duration<double>(now - leader.last_meta).count();
     const auto& meta = follow->replica().meta();
-    const bool mapping = meta && !meta->complete();
+    const bool mapping = meta && !meta->complete;
     std::string why;
     if (leader.matched_seen && matched == 0) {
       why = "DDS reports its map writer gone";
@@ -295,7 +295,7 @@ int main(int argc, char** argv) {
     spdlog::warn(
         "leader gone: {} (last summary {:.1f} s ago, at its scan {}); keeping the map ({} tiles) "
         "and {}",
-        why, silent, meta ? meta->scans() : 0,
+        why, silent, meta ? meta->scans : 0,
         follow->replica().has_map() ? follow->replica().map().tile_count() : 0,
         source ? "tracking" : "waiting");
   };
@@ -405,7 +405,7 @@ int main(int argc, char** argv) {
 
   auto process_scan = [&](const LaserScan& scan) {
     ++ls.scans;
-    const dds::MapReplica& replica = follow->replica();
+    const mapshare::MapReplica& replica = follow->replica();
     if (replica.has_map() && epoch && replica.epoch() != *epoch) {
       spdlog::warn("the leader's map changed (epoch {} -> {}): localising afresh", *epoch,
                    replica.epoch());

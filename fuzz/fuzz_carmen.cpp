@@ -10,7 +10,8 @@
 #include <string>
 
 #include "esfleet/core/carmen_reader.hpp"
-#include "esfleet/dds/map_convert.hpp"
+#include "esfleet/dds/from_msg.hpp"
+#include "esfleet/dds/to_msg.hpp"
 #include "fuzz_check.hpp"
 
 using esfleet::fuzz::check;

@@ -1,5 +1,6 @@
 // libFuzzer target: tile payload decoding (every encoding) and the follower's validation and
-// apply path (MapReplica) for tiles, tile deltas and summaries built from the input bytes
+// apply path (dds/from_msg, then mapshare::MapReplica) for tiles, tile deltas and summaries
+// built from the input bytes
 // (layout: tile_records.hpp). Invariants checked after every record:
 //  - decode_tile either throws TileDecodeError or yields `cells` counters that re-encode and
 //    decode to the same counters;
@@ -14,12 +15,14 @@
 #include <vector>
 
 #include "esfleet/core/tile_codec.hpp"
-#include "esfleet/dds/map_convert.hpp"
+#include "esfleet/dds/from_msg.hpp"
+#include "esfleet/mapshare/map_replica.hpp"
 #include "fuzz_check.hpp"
 #include "tile_records.hpp"
 
 using esfleet::fuzz::check;
 namespace dds = esfleet::dds;
+namespace mapshare = esfleet::mapshare;
 
 namespace {
 
@@ -61,17 +64,17 @@ struct Snapshot {
   bool has_meta = false;
   std::uint64_t meta_version = 0;
 
-  Snapshot(const dds::MapReplica& r, esfleet::TileKey key)
+  Snapshot(const mapshare::MapReplica& r, esfleet::TileKey key)
       : epoch(r.epoch()),
         map_id(r.map_id()),
         has_map(r.has_map()),
         has_meta(r.meta().has_value()),
-        meta_version(r.meta() ? r.meta()->map_version() : 0) {
+        meta_version(r.meta() ? r.meta()->map_version : 0) {
     if (!has_map) return;
     cell_size = r.map().cell_size();
     tile_edge = r.map().tile_edge();
     tiles = r.map().tile_count();
-    version_sum = dds::map_version(r.map());
+    version_sum = mapshare::map_version(r.map());
     if (const esfleet::Tile* t = r.map().find_tile(key)) {
       tile_version = t->version;
       tile_digest = esfleet::tile_digest(t->hit, t->err);
@@ -80,7 +83,7 @@ struct Snapshot {
   bool operator==(const Snapshot&) const = default;
 };
 
-void check_replica(const dds::MapReplica& r) {
+void check_replica(const mapshare::MapReplica& r) {
   if (!r.has_map()) return;
   const esfleet::GridMap& map = r.map();
   if (map.tile_count() > 64) return;  // checked while the map is small (the target stays fast)
@@ -93,17 +96,15 @@ void check_replica(const dds::MapReplica& r) {
   (void)r.complete();
 }
 
-template <typename Msg>
-void after_apply(dds::Applied a, const std::string& error, const Snapshot& before,
-                 const dds::MapReplica& r, const Msg* tile) {
-  if (a == dds::Applied::kRejected) check(!error.empty(), "a rejection says why");
-  if (a != dds::Applied::kApplied) {
-    const esfleet::TileKey key =
-        tile != nullptr ? esfleet::TileKey{tile->tx(), tile->ty()} : esfleet::TileKey{};
+void after_apply(mapshare::Applied a, const std::string& error, const Snapshot& before,
+                 const mapshare::MapReplica& r, const mapshare::TileMessage* tile) {
+  if (a == mapshare::Applied::kRejected) check(!error.empty(), "a rejection says why");
+  if (a != mapshare::Applied::kApplied) {
+    const esfleet::TileKey key = tile != nullptr ? tile->key() : esfleet::TileKey{};
     check(Snapshot(r, key) == before, "a message not applied changes nothing");
   } else if (tile != nullptr) {
-    const esfleet::Tile* t = r.map().find_tile({tile->tx(), tile->ty()});
-    check(t != nullptr && t->version == tile->version(), "an applied tile has its version");
+    const esfleet::Tile* t = r.map().find_tile(tile->key());
+    check(t != nullptr && t->version == tile->version, "an applied tile has its version");
   }
   check_replica(r);
 }
@@ -119,7 +120,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   // input with two far-apart tiles slow; the range check itself is the same code.
   esfleet::GridMapConfig local;
   local.max_tile_coord = 64;
-  dds::MapReplica replica((flags & 1) != 0 ? "" : "fuzz", local);
+  mapshare::MapReplica replica((flags & 1) != 0 ? "" : "fuzz", local);
   for (int records = 0; records < 64 && !in.empty(); ++records) {
     std::uint8_t kind = 0;
     if (!in.take(kind)) break;
@@ -131,8 +132,9 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       case esfleet::fuzz::RecordKind::kTile: {
         esfleet::msg::MapTile t;
         if (!esfleet::fuzz::read_tile_fields(in, t, nullptr)) return 0;
-        const Snapshot before(replica, {t.tx(), t.ty()});
-        after_apply(replica.apply(t, &error), error, before, replica, &t);
+        const mapshare::TileMessage tile = dds::tile_from_msg(std::move(t));
+        const Snapshot before(replica, tile.key());
+        after_apply(replica.apply(tile, &error), error, before, replica, &tile);
         break;
       }
       case esfleet::fuzz::RecordKind::kDelta: {
@@ -140,16 +142,16 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         std::uint64_t base = 0;
         if (!esfleet::fuzz::read_tile_fields(in, d, &base)) return 0;
         d.base_version(base);
-        const Snapshot before(replica, {d.tx(), d.ty()});
-        after_apply(replica.apply(d, &error), error, before, replica, &d);
+        const mapshare::TileMessage delta = dds::delta_from_msg(std::move(d));
+        const Snapshot before(replica, delta.key());
+        after_apply(replica.apply(delta, &error), error, before, replica, &delta);
         break;
       }
       case esfleet::fuzz::RecordKind::kMeta: {
         esfleet::msg::MapMeta m;
         if (!esfleet::fuzz::read_meta(in, m)) return 0;
         const Snapshot before(replica, {});
-        after_apply(replica.apply(m, &error), error, before, replica,
-                    static_cast<const esfleet::msg::MapTile*>(nullptr));
+        after_apply(replica.apply(dds::meta_from_msg(m), &error), error, before, replica, nullptr);
         break;
       }
     }

@@ -21,7 +21,8 @@
 #include "esfleet/core/map_io.hpp"
 #include "esfleet/core/map_update.hpp"
 #include "esfleet/core/scan_points.hpp"
-#include "esfleet/dds/map_convert.hpp"
+#include "esfleet/dds/to_msg.hpp"
+#include "esfleet/mapshare/tile_sender.hpp"
 #include "tile_records.hpp"
 
 namespace {
@@ -101,7 +102,7 @@ int main(int argc, char** argv) {
   map_loader_seeds(scans, std::string(argv[2]) + "/fuzz_map_loader");
   const std::string dir = std::string(argv[2]) + "/fuzz_tile";
   esfleet::GridMap map;
-  const esfleet::dds::MapIdentity id{"fuzz", 1};
+  const esfleet::mapshare::MapIdentity id{"fuzz", 1};
   // The first scan, a copy of its tiles (the bases of deltas), then the rest.
   esfleet::update_map(map, esfleet::prepare_scan(scans.front()), *scans.front().odometry);
   std::vector<esfleet::Tile> first;
@@ -117,48 +118,62 @@ int main(int argc, char** argv) {
   if (changed == nullptr) throw std::runtime_error("no tile changed after the first scan");
   const esfleet::Tile& base = *changed;
   const esfleet::TileKey delta_key = base.key;
-  const auto meta =
-      esfleet::dds::meta_to_msg(map, id, true, static_cast<std::uint32_t>(scans.size()), "{}", 0);
+  const auto scan_count = static_cast<std::uint32_t>(scans.size());
   const esfleet::TileEncoding encodings[] = {esfleet::TileEncoding::kMedZlib,
                                              esfleet::TileEncoding::kVarintZlib,
                                              esfleet::TileEncoding::kRaw};
   for (const esfleet::TileEncoding enc : encodings) {
     const std::string name = std::to_string(static_cast<int>(enc));
-    // The whole map as a follower receives it: summary, every tile, one delta (stale by then).
+    // What the leader's sender makes of the whole map (every tile whole, the summary).
+    esfleet::mapshare::TileSender sender(id, enc);
+    sender.republish_all(map);
+    esfleet::mapshare::Publication all = sender.publish(map, 0.0, true, false, scan_count, "{}", 0);
+    // The whole map as a follower receives it: summary, every tile.
     RecordWriter w;
     w.put(std::uint8_t{0});
     w.put(static_cast<std::uint8_t>(RecordKind::kMeta));
-    esfleet::fuzz::write_meta(w, meta);
+    esfleet::fuzz::write_meta(w, esfleet::dds::meta_to_msg(all.meta));
     // Raw tiles are 32 kB each: one is enough (fuzz/run.sh caps inputs at 70 kB).
-    std::vector<esfleet::TileKey> keys = map.tile_keys();
-    if (enc == esfleet::TileEncoding::kRaw) keys.resize(1);
-    for (const esfleet::TileKey k : keys) {
+    if (enc == esfleet::TileEncoding::kRaw) all.tiles.resize(1);
+    for (esfleet::mapshare::TileMessage& t : all.tiles) {
       w.put(static_cast<std::uint8_t>(RecordKind::kTile));
-      esfleet::fuzz::write_tile_fields(w, esfleet::dds::tile_to_msg(map, k, id, enc, 0), nullptr);
+      esfleet::fuzz::write_tile_fields(w, esfleet::dds::tile_to_msg(std::move(t)), nullptr);
     }
     save(dir + "/map-enc" + name, w);
-    // The base tile, then its delta to the final version.
-    RecordWriter d;
-    d.put(std::uint8_t{1});
+    // The base tile, then its delta to the final version, as the sender makes them.
     esfleet::GridMap one;
     one.set_tile(delta_key, base.version, base.hit, base.err);
+    esfleet::mapshare::TileSender chain(id, enc);
+    chain.republish_all(one);
+    esfleet::mapshare::Publication first_pub = chain.publish(one, 0.0, false, false, 1, "{}", 0);
+    map.mark_all_dirty();
+    esfleet::mapshare::Publication later = chain.publish(map, 1.0, false, false, 2, "{}", 0);
+    RecordWriter d;
+    d.put(std::uint8_t{1});
     d.put(static_cast<std::uint8_t>(RecordKind::kTile));
-    esfleet::fuzz::write_tile_fields(d, esfleet::dds::tile_to_msg(one, delta_key, id, enc, 0),
+    esfleet::fuzz::write_tile_fields(d, esfleet::dds::tile_to_msg(std::move(first_pub.tiles.at(0))),
                                      nullptr);
-    const auto delta = esfleet::dds::tile_delta_to_msg(map, delta_key, base.version, base.hit,
-                                                       base.err, id, enc, 0);
-    const std::uint64_t base_version = delta.base_version();
-    d.put(static_cast<std::uint8_t>(RecordKind::kDelta));
-    esfleet::fuzz::write_tile_fields(d, delta, &base_version);
+    for (esfleet::mapshare::TileMessage& t : later.tiles) {
+      if (!t.is_delta()) continue;
+      const std::uint64_t base_version = *t.base_version;
+      d.put(static_cast<std::uint8_t>(RecordKind::kDelta));
+      esfleet::fuzz::write_tile_fields(d, esfleet::dds::delta_to_msg(std::move(t)), &base_version);
+    }
     save(dir + "/delta-enc" + name, d);
-    // The bare decoder on one tile.
+    // The bare decoder on one tile (the changed one, at its final version).
+    esfleet::GridMap only;
+    const esfleet::Tile& final_tile = *map.find_tile(delta_key);
+    only.set_tile(delta_key, final_tile.version, final_tile.hit, final_tile.err);
+    esfleet::mapshare::TileSender single(id, enc);
+    single.republish_all(only);
+    const esfleet::mapshare::TileMessage t =
+        single.publish(only, 0.0, true, false, 1, "{}", 0).tiles.at(0);
     RecordWriter c;
     c.put(std::uint8_t{0});
     c.put(static_cast<std::uint8_t>(RecordKind::kDecode));
-    const auto t = esfleet::dds::tile_to_msg(map, delta_key, id, enc, 0);
-    c.put(t.encoding());
-    c.put(t.cells());
-    c.put_payload(t.payload());
+    c.put(t.encoding);
+    c.put(t.cells);
+    c.put_payload(t.payload);
     save(dir + "/decode-enc" + name, c);
   }
   return 0;

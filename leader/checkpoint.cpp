@@ -56,17 +56,7 @@ Checkpointer::Checkpointer(std::string dir, std::uint64_t first_generation)
 }
 
 void Checkpointer::reserve(const GridMap& map) {
-  std::uint64_t max_version = 0;
-  bool new_key = false;
-  const std::vector<TileKey> keys = map.tile_keys();
-  for (const TileKey k : keys) {
-    max_version = std::max(max_version, map.find_tile(k)->version);
-    if (!new_key && !journal_.keys.contains(k)) new_key = true;
-  }
-  if (max_version <= journal_.version_ceiling && !new_key) return;
-  journal_.version_ceiling = std::max(journal_.version_ceiling, max_version + kVersionHeadroom);
-  journal_.keys.insert(keys.begin(), keys.end());
-  write_journal();
+  if (journal_.reserve(map)) write_journal();
 }
 
 void Checkpointer::write_journal() {
@@ -179,29 +169,13 @@ Resumed load_checkpoint(const std::string& dir, Slam& slam) {
 
   // Supersede everything published before: every tile (and every tile followers may hold that
   // the checkpoint lacks, empty) at a version above anything the dead leader could have sent.
-  GridMap& map = slam.map();
-  r.new_version = r.journal.version_ceiling + 1;
-  for (const TileKey k : map.tile_keys()) {
-    if (map.find_tile(k)->version > r.journal.version_ceiling) {
-      throw std::runtime_error(journal_path.string() + ": version_ceiling " +
-                               std::to_string(r.journal.version_ceiling) +
-                               " is below a checkpointed tile version");
-    }
+  try {
+    const mapshare::Superseded s = mapshare::supersede(slam.map(), r.journal);
+    r.new_version = s.new_version;
+    r.tiles_added_empty = s.tiles_added_empty;
+  } catch (const std::invalid_argument& e) {
+    throw std::runtime_error(journal_path.string() + ": " + e.what());
   }
-  const std::vector<std::uint32_t> zeros(map.cells_per_tile(), 0);
-  for (const TileKey k : r.journal.keys) {
-    if (map.find_tile(k) == nullptr) {
-      map.set_tile(k, r.new_version, zeros, zeros);
-      ++r.tiles_added_empty;
-    }
-  }
-  for (const TileKey k : map.tile_keys()) {
-    const Tile& t = *map.find_tile(k);
-    const std::vector<std::uint32_t> hit = t.hit, err = t.err;
-    map.set_tile(k, r.new_version, hit, err);
-  }
-  r.journal.version_ceiling = r.new_version + kVersionHeadroom;
-  for (const TileKey k : map.tile_keys()) r.journal.keys.insert(k);
   return r;
 }
 

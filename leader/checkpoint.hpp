@@ -19,11 +19,11 @@
 // lacks are created empty, so every tile the followers hold is replaced by a newer version.
 
 #include <cstdint>
-#include <set>
 #include <string>
 
 #include "esfleet/core/grid_map.hpp"
 #include "esfleet/core/slam.hpp"
+#include "esfleet/mapshare/publish_journal.hpp"
 
 namespace esfleet::leader {
 
@@ -36,35 +36,25 @@ struct CheckpointInfo {
   std::string params_json;  ///< the SLAM parameters (a resumed leader must use the same)
 };
 
-/// Tiles followers may hold: no version above the ceiling, no key outside the set.
-struct PublishJournal {
-  std::uint64_t version_ceiling = 0;
-  std::set<TileKey> keys;
-};
-
-/// Versions reserved at a time: the journal is rewritten when a tile version passes the ceiling.
-inline constexpr std::uint64_t kVersionHeadroom = 1000;
-
 class Checkpointer {
  public:
   /// Checkpoints go to `dir` (DIR/checkpoint, created). `first_generation` continues the
   /// numbering of a resumed checkpoint in the same directory.
   explicit Checkpointer(std::string dir, std::uint64_t first_generation = 1);
 
-  /// Before publishing `map`: if a tile's version is above the ceiling or its key is not in the
-  /// journal, raises the ceiling (max version + kVersionHeadroom), adds every key and rewrites
-  /// journal.json. Throws std::runtime_error naming the file on I/O failure.
+  /// Before publishing `map`: when the journal does not cover it (mapshare::PublishJournal::
+  /// reserve), rewrites journal.json. Throws std::runtime_error naming the file on I/O failure.
   void reserve(const GridMap& map);
   /// Writes generation g+1 of the checkpoint (snapshot files, journal, manifest last) and
   /// deletes older generations; returns the bytes written. Throws std::runtime_error.
   std::uint64_t save(const Slam& slam, const CheckpointInfo& info);
 
   /// Takes over a resumed leader's journal and writes it at once (before anything is published).
-  void adopt_journal(PublishJournal journal) {
+  void adopt_journal(mapshare::PublishJournal journal) {
     journal_ = std::move(journal);
     write_journal();
   }
-  const PublishJournal& journal() const { return journal_; }
+  const mapshare::PublishJournal& journal() const { return journal_; }
   const std::string& dir() const { return dir_; }
 
  private:
@@ -72,21 +62,22 @@ class Checkpointer {
 
   std::string dir_;
   std::uint64_t generation_;  ///< of the next save()
-  PublishJournal journal_;
+  mapshare::PublishJournal journal_;
 };
 
 /// A loaded checkpoint.
 struct Resumed {
   CheckpointInfo info;
-  PublishJournal journal;
+  mapshare::PublishJournal journal;
   std::uint64_t generation = 0;
   std::uint64_t tiles_added_empty = 0;  ///< journal tiles the checkpoint did not have
   std::uint64_t new_version = 0;        ///< every tile's version after resume
 };
 
 /// Loads DIR/checkpoint into `slam` (fresh, built with the same config: its map must be empty),
-/// then supersedes what was published: every tile gets version journal ceiling + 1, journal
-/// tiles the snapshot lacks are created empty, the ceiling is raised past the new versions.
+/// then supersedes what was published (mapshare::supersede): every tile gets version journal
+/// ceiling + 1, journal tiles the snapshot lacks are created empty, the ceiling is raised past
+/// the new versions.
 /// Throws std::runtime_error naming the file and field on a missing or corrupt checkpoint.
 Resumed load_checkpoint(const std::string& dir, Slam& slam);
 

@@ -26,6 +26,7 @@
 #include "checkpoint.hpp"
 #include "esfleet/core/slam.hpp"
 #include "esfleet/dds/node.hpp"
+#include "esfleet/dds/to_msg.hpp"
 #include "map_publisher.hpp"
 
 namespace {
@@ -283,11 +284,11 @@ int main(int argc, char** argv) {
       node = std::make_unique<dds::Node>(
           dds::NodeOptions{o.domain, o.profile, "esfleet-leader", o.secure});
       publisher = std::make_unique<leader::MapPublisher>(
-          *node, dds::MapIdentity{o.map_id, o.epoch}, o.robot_id,
+          *node, mapshare::MapIdentity{o.map_id, o.epoch}, o.robot_id,
           o.encoding == "raw"      ? TileEncoding::kRaw
           : o.encoding == "varint" ? TileEncoding::kVarintZlib
                                    : TileEncoding::kMedZlib,
-          leader::DeltaPolicy{o.full_every, o.full_period});
+          mapshare::DeltaPolicy{o.full_every, o.full_period});
       if (!scan_robot.empty()) {
         auto t = std::make_unique<app::TopicScanSource>(*node, scan_robot, o.idle_exit);
         topic = t.get();

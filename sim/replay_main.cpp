@@ -32,7 +32,7 @@
 
 #include "app/dds_flags.hpp"
 #include "esfleet/core/carmen_reader.hpp"
-#include "esfleet/dds/map_convert.hpp"
+#include "esfleet/dds/to_msg.hpp"
 #include "esfleet/dds/node.hpp"
 #include "esfleet/dds/writer.hpp"
 

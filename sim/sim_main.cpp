@@ -26,7 +26,7 @@
 #include <vector>
 
 #include "app/dds_flags.hpp"
-#include "esfleet/dds/map_convert.hpp"
+#include "esfleet/dds/to_msg.hpp"
 #include "esfleet/dds/node.hpp"
 #include "esfleet/dds/writer.hpp"
 #include "esfleet/sim/fleet.hpp"

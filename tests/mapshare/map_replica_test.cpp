@@ -1,8 +1,8 @@
-// Map messages and the follower's replica, without a network: a replica fed the leader's tile
+// The follower's replica, without a network: a replica fed the leader's tile
 // messages must hold counters equal to the leader's; anything malformed is rejected with a
 // reason and leaves the replica untouched.
 
-#include "esfleet/dds/map_convert.hpp"
+#include "esfleet/mapshare/map_replica.hpp"
 
 #include <gtest/gtest.h>
 
@@ -14,7 +14,7 @@
 
 #include "esfleet/core/tile_codec.hpp"
 
-namespace esfleet::dds {
+namespace esfleet::mapshare {
 namespace {
 
 /// A leader map with random counters over a few tiles (including negative keys).
@@ -38,7 +38,7 @@ void send_all(const GridMap& leader, MapReplica& replica, const MapIdentity& id,
               TileEncoding enc = TileEncoding::kVarintZlib) {
   for (const TileKey k : leader.tile_keys()) {
     std::string error;
-    ASSERT_EQ(replica.apply(tile_to_msg(leader, k, id, enc, 1), &error), Applied::kApplied)
+    ASSERT_EQ(replica.apply(whole_tile_message(leader, k, id, enc, 1), &error), Applied::kApplied)
         << error;
   }
 }
@@ -63,21 +63,22 @@ TEST(MapReplica, CompleteOnlyWithEveryTileAtTheNewestVersion) {
   const MapIdentity id;
   const auto keys = leader.tile_keys();
   ASSERT_GT(keys.size(), 2u);
-  EXPECT_EQ(replica.apply(meta_to_msg(leader, id, true, 10, "{}", 1)), Applied::kApplied);
+  EXPECT_EQ(replica.apply(meta_message(leader, id, true, 10, "{}", 1)), Applied::kApplied);
   EXPECT_FALSE(replica.complete());
   for (std::size_t i = 0; i + 1 < keys.size(); ++i) {
-    replica.apply(tile_to_msg(leader, keys[i], id, TileEncoding::kVarintZlib, 1));
+    replica.apply(whole_tile_message(leader, keys[i], id, TileEncoding::kVarintZlib, 1));
   }
   EXPECT_FALSE(replica.complete());  // one tile missing
-  replica.apply(tile_to_msg(leader, keys.back(), id, TileEncoding::kVarintZlib, 1));
+  replica.apply(whole_tile_message(leader, keys.back(), id, TileEncoding::kVarintZlib, 1));
   EXPECT_TRUE(replica.complete());
 
   // The leader changes a tile and says so: incomplete until the new version arrives.
   leader.add_hit({0, 0});
   leader.commit_update();
-  replica.apply(meta_to_msg(leader, id, true, 11, "{}", 2));
+  replica.apply(meta_message(leader, id, true, 11, "{}", 2));
   EXPECT_FALSE(replica.complete());
-  replica.apply(tile_to_msg(leader, leader.tile_of({0, 0}), id, TileEncoding::kVarintZlib, 2));
+  replica.apply(
+      whole_tile_message(leader, leader.tile_of({0, 0}), id, TileEncoding::kVarintZlib, 2));
   EXPECT_TRUE(replica.complete());
   EXPECT_EQ(map_digest(replica.map()), map_digest(leader));
 }
@@ -85,10 +86,10 @@ TEST(MapReplica, CompleteOnlyWithEveryTileAtTheNewestVersion) {
 TEST(MapReplica, OlderOrEqualVersionsAreStale) {
   GridMap leader = random_map(5);
   const TileKey k = leader.tile_keys().front();
-  const msg::MapTile v1 = tile_to_msg(leader, k, {}, TileEncoding::kVarintZlib, 1);
+  const TileMessage v1 = whole_tile_message(leader, k, {}, TileEncoding::kVarintZlib, 1);
   leader.add_hit({k.tx * 64, k.ty * 64});
   leader.commit_update();
-  const msg::MapTile v2 = tile_to_msg(leader, k, {}, TileEncoding::kVarintZlib, 2);
+  const TileMessage v2 = whole_tile_message(leader, k, {}, TileEncoding::kVarintZlib, 2);
   MapReplica replica;
   EXPECT_EQ(replica.apply(v2), Applied::kApplied);
   EXPECT_EQ(replica.apply(v1), Applied::kStale);
@@ -100,13 +101,13 @@ TEST(MapReplica, OtherMapsAndOlderEpochsAreIgnoredANewerEpochRestarts) {
   const GridMap a = random_map(6), b = random_map(7, 500);
   MapReplica replica("fleet");
   const TileKey ka = a.tile_keys().front();
-  EXPECT_EQ(replica.apply(tile_to_msg(a, ka, {"other", 1}, TileEncoding::kRaw, 1)),
+  EXPECT_EQ(replica.apply(whole_tile_message(a, ka, {"other", 1}, TileEncoding::kRaw, 1)),
             Applied::kIgnored);
   EXPECT_FALSE(replica.has_map());
   send_all(a, replica, {"fleet", 2});
-  EXPECT_EQ(
-      replica.apply(tile_to_msg(b, b.tile_keys().front(), {"fleet", 1}, TileEncoding::kRaw, 1)),
-      Applied::kIgnored);
+  EXPECT_EQ(replica.apply(
+                whole_tile_message(b, b.tile_keys().front(), {"fleet", 1}, TileEncoding::kRaw, 1)),
+            Applied::kIgnored);
   send_all(b, replica, {"fleet", 3});  // the leader restarted with a new map
   EXPECT_EQ(replica.epoch(), 3u);
   EXPECT_EQ(map_digest(replica.map()), map_digest(b));
@@ -117,38 +118,38 @@ TEST(MapReplica, MalformedTilesAreRejectedWithAReasonAndChangeNothing) {
   MapReplica replica;
   send_all(leader, replica, {});
   const std::string before = map_digest(replica.map());
-  const msg::MapTile good =
-      tile_to_msg(leader, leader.tile_keys().front(), {}, TileEncoding::kVarintZlib, 1);
+  const TileMessage good =
+      whole_tile_message(leader, leader.tile_keys().front(), {}, TileEncoding::kVarintZlib, 1);
 
   struct Case {
     const char* name;
-    std::function<void(msg::MapTile&)> spoil;
+    std::function<void(TileMessage&)> spoil;
     const char* expect;
   };
   const std::vector<Case> cases = {
-      {"protocol", [](msg::MapTile& t) { t.protocol(9); }, "protocol 9"},
-      {"cells", [](msg::MapTile& t) { t.cells(100); }, "cells 100"},
-      {"tile edge", [](msg::MapTile& t) { t.tile_edge(63); }, "tile_edge 63"},
-      {"tile edge change", [](msg::MapTile& t) { t.tile_edge(32); }, "differs"},
-      {"cell size", [](msg::MapTile& t) { t.cell_size(std::nanf("")); }, "cell_size"},
-      {"cell size change", [](msg::MapTile& t) { t.cell_size(0.1f); }, "differs"},
-      {"key", [](msg::MapTile& t) { t.tx(5000000); }, "outside"},
-      {"encoding", [](msg::MapTile& t) { t.encoding(7); }, "unknown encoding 7"},
-      {"payload", [](msg::MapTile& t) { t.payload().resize(t.payload().size() / 2); }, "zlib"},
-      {"version 0", [](msg::MapTile& t) { t.version(0); }, "version 0"},
-      {"oversized", [](msg::MapTile& t) { t.payload().resize(16u << 20); },
+      {"protocol", [](TileMessage& t) { t.protocol = 9; }, "protocol 9"},
+      {"cells", [](TileMessage& t) { t.cells = 100; }, "cells 100"},
+      {"tile edge", [](TileMessage& t) { t.tile_edge = 63; }, "tile_edge 63"},
+      {"tile edge change", [](TileMessage& t) { t.tile_edge = 32; }, "differs"},
+      {"cell size", [](TileMessage& t) { t.cell_size = std::nanf(""); }, "cell_size"},
+      {"cell size change", [](TileMessage& t) { t.cell_size = 0.1f; }, "differs"},
+      {"key", [](TileMessage& t) { t.tx = 5000000; }, "outside"},
+      {"encoding", [](TileMessage& t) { t.encoding = 7; }, "unknown encoding 7"},
+      {"payload", [](TileMessage& t) { t.payload.resize(t.payload.size() / 2); }, "zlib"},
+      {"version 0", [](TileMessage& t) { t.version = 0; }, "version 0"},
+      {"oversized", [](TileMessage& t) { t.payload.resize(16u << 20); },
        "payload of 16777216 bytes, more than the 41036 a tile of 4096 cells can need"},
       // A newer epoch would start a new map, but only once the tile is known to be sound.
       {"newer epoch, bad payload",
-       [](msg::MapTile& t) {
-         t.epoch(t.epoch() + 1);
-         t.payload().resize(3);
+       [](TileMessage& t) {
+         t.epoch = t.epoch + 1;
+         t.payload.resize(3);
        },
        "zlib"},
   };
   for (const Case& c : cases) {
-    msg::MapTile bad = good;
-    bad.version(good.version() + 100);  // newer, so only validation can stop it
+    TileMessage bad = good;
+    bad.version = good.version + 100;  // newer, so only validation can stop it
     c.spoil(bad);
     std::string error;
     EXPECT_EQ(replica.apply(bad, &error), Applied::kRejected) << c.name;
@@ -190,7 +191,7 @@ TEST(MapReplica, RebuildsTheLeadersMapFromAMixOfTilesAndDeltas) {
     std::vector<std::uint32_t> hit, err;
   };
   std::map<TileKey, Sent> sent;
-  std::map<TileKey, msg::MapTile> last_full;  // what a transient-local KEEP_LAST 1 topic holds
+  std::map<TileKey, TileMessage> last_full;  // what a transient-local KEEP_LAST 1 topic holds
   int fulls = 0, deltas = 0;
   const std::uint64_t full_every = 4;
   for (int step = 0; step < 40; ++step) {
@@ -201,16 +202,16 @@ TEST(MapReplica, RebuildsTheLeadersMapFromAMixOfTilesAndDeltas) {
       Sent& s = it->second;
       std::string error;
       if (is_new || tile.version - s.full_version >= full_every) {
-        const msg::MapTile m = tile_to_msg(leader, k, id, TileEncoding::kMedZlib, step);
+        const TileMessage m = whole_tile_message(leader, k, id, TileEncoding::kMedZlib, step);
         ASSERT_EQ(live.apply(m, &error), Applied::kApplied) << error;
         last_full[k] = m;
         s.full_version = tile.version;
         ++fulls;
       } else {
-        const msg::MapTileDelta d =
-            tile_delta_to_msg(leader, k, s.version, s.hit, s.err, id, TileEncoding::kMedZlib, step);
-        EXPECT_EQ(d.base_version(), s.version);
-        EXPECT_EQ(d.version(), tile.version);
+        const TileMessage d = delta_tile_message(leader, k, s.version, s.hit, s.err, id,
+                                                 TileEncoding::kMedZlib, step);
+        EXPECT_EQ(d.base_version, s.version);
+        EXPECT_EQ(d.version, tile.version);
         ASSERT_EQ(live.apply(d, &error), Applied::kApplied) << error;
         EXPECT_EQ(live.apply(d, &error), Applied::kStale);  // a duplicate
         ++deltas;
@@ -231,9 +232,9 @@ TEST(MapReplica, RebuildsTheLeadersMapFromAMixOfTilesAndDeltas) {
   for (const auto& [k, m] : last_full) ASSERT_EQ(late.apply(m), Applied::kApplied);
   for (const auto& [k, s] : sent) {
     if (s.full_version < s.version) {
-      EXPECT_EQ(late.apply(tile_to_msg(leader, k, id, TileEncoding::kMedZlib, 99)),
+      EXPECT_EQ(late.apply(whole_tile_message(leader, k, id, TileEncoding::kMedZlib, 99)),
                 Applied::kApplied);
-      EXPECT_EQ(live.apply(tile_to_msg(leader, k, id, TileEncoding::kMedZlib, 99)),
+      EXPECT_EQ(live.apply(whole_tile_message(leader, k, id, TileEncoding::kMedZlib, 99)),
                 Applied::kStale);
     }
   }
@@ -247,18 +248,18 @@ TEST(MapReplica, ADeltaWithoutItsBaseNeedsBaseAndChangesNothing) {
   const Tile* tile = leader.find_tile(k);
   const std::uint64_t v1 = tile->version;
   const std::vector<std::uint32_t> hit1 = tile->hit, err1 = tile->err;
-  const msg::MapTile full1 = tile_to_msg(leader, k, id, TileEncoding::kMedZlib, 1);
+  const TileMessage full1 = whole_tile_message(leader, k, id, TileEncoding::kMedZlib, 1);
   leader.add_hit({k.tx * 64 + 3, k.ty * 64 + 5});
   leader.commit_update();
   const std::uint64_t v2 = tile->version;
   const std::vector<std::uint32_t> hit2 = tile->hit, err2 = tile->err;
-  const msg::MapTileDelta d12 =
-      tile_delta_to_msg(leader, k, v1, hit1, err1, id, TileEncoding::kMedZlib, 2);
+  const TileMessage d12 =
+      delta_tile_message(leader, k, v1, hit1, err1, id, TileEncoding::kMedZlib, 2);
   leader.add_err({k.tx * 64 + 7, k.ty * 64 + 1});
   leader.commit_update();
-  const msg::MapTileDelta d23 =
-      tile_delta_to_msg(leader, k, v2, hit2, err2, id, TileEncoding::kMedZlib, 3);
-  EXPECT_LT(d23.payload().size(), 100u);  // mostly zero differences compress to little
+  const TileMessage d23 =
+      delta_tile_message(leader, k, v2, hit2, err2, id, TileEncoding::kMedZlib, 3);
+  EXPECT_LT(d23.payload.size(), 100u);  // mostly zero differences compress to little
 
   MapReplica replica;
   EXPECT_EQ(replica.apply(d12), Applied::kNeedsBase);  // no map at all yet
@@ -278,8 +279,8 @@ TEST(MapReplica, ADeltaWithoutItsBaseNeedsBaseAndChangesNothing) {
   EXPECT_EQ(fresh.map().find_tile(k)->version, tile->version);
   EXPECT_EQ(fresh.apply(d12), Applied::kStale);
   // The replica holding other tiles but not the base of k: needs base, unchanged.
-  msg::MapTileDelta elsewhere = d12;
-  elsewhere.tx(900);
+  TileMessage elsewhere = d12;
+  elsewhere.tx = 900;
   EXPECT_EQ(replica.apply(elsewhere), Applied::kNeedsBase);
   EXPECT_EQ(map_digest(replica.map()), before);
 }
@@ -295,30 +296,30 @@ TEST(MapReplica, MalformedDeltasAreRejectedWithAReasonAndChangeNothing) {
   const std::uint64_t base = tile->version;
   leader.add_hit({k.tx * 64, k.ty * 64});
   leader.commit_update();
-  const msg::MapTileDelta good =
-      tile_delta_to_msg(leader, k, base, hit, err, id, TileEncoding::kMedZlib, 1);
+  const TileMessage good =
+      delta_tile_message(leader, k, base, hit, err, id, TileEncoding::kMedZlib, 1);
   const std::string before = map_digest(replica.map());
 
   struct Case {
     const char* name;
-    std::function<void(msg::MapTileDelta&)> spoil;
+    std::function<void(TileMessage&)> spoil;
     const char* expect;
   };
   const std::vector<Case> cases = {
-      {"protocol", [](msg::MapTileDelta& d) { d.protocol(9); }, "protocol 9"},
-      {"cells", [](msg::MapTileDelta& d) { d.cells(100); }, "cells 100"},
-      {"tile edge", [](msg::MapTileDelta& d) { d.tile_edge(63); }, "tile_edge 63"},
-      {"tile edge change", [](msg::MapTileDelta& d) { d.tile_edge(32); }, "differs"},
-      {"cell size", [](msg::MapTileDelta& d) { d.cell_size(std::nanf("")); }, "cell_size"},
-      {"key", [](msg::MapTileDelta& d) { d.ty(-5000000); }, "outside"},
-      {"base version", [](msg::MapTileDelta& d) { d.base_version(d.version()); }, "base_version"},
-      {"encoding", [](msg::MapTileDelta& d) { d.encoding(7); }, "unknown encoding 7"},
-      {"payload", [](msg::MapTileDelta& d) { d.payload().resize(d.payload().size() / 2); }, "zlib"},
-      {"oversized", [](msg::MapTileDelta& d) { d.payload().assign(50000, 0); },
+      {"protocol", [](TileMessage& d) { d.protocol = 9; }, "protocol 9"},
+      {"cells", [](TileMessage& d) { d.cells = 100; }, "cells 100"},
+      {"tile edge", [](TileMessage& d) { d.tile_edge = 63; }, "tile_edge 63"},
+      {"tile edge change", [](TileMessage& d) { d.tile_edge = 32; }, "differs"},
+      {"cell size", [](TileMessage& d) { d.cell_size = std::nanf(""); }, "cell_size"},
+      {"key", [](TileMessage& d) { d.ty = -5000000; }, "outside"},
+      {"base version", [](TileMessage& d) { d.base_version = d.version; }, "base_version"},
+      {"encoding", [](TileMessage& d) { d.encoding = 7; }, "unknown encoding 7"},
+      {"payload", [](TileMessage& d) { d.payload.resize(d.payload.size() / 2); }, "zlib"},
+      {"oversized", [](TileMessage& d) { d.payload.assign(50000, 0); },
        "payload of 50000 bytes, more than the 41036"},
   };
   for (const Case& c : cases) {
-    msg::MapTileDelta bad = good;
+    TileMessage bad = good;
     c.spoil(bad);
     std::string error;
     EXPECT_EQ(replica.apply(bad, &error), Applied::kRejected) << c.name;
@@ -334,134 +335,45 @@ TEST(MapReplica, MalformedSummariesAreRejectedWithAReasonAndChangeNothing) {
   const MapIdentity id{"map", 4};
   MapReplica replica;
   send_all(leader, replica, id);
-  const msg::MapMeta good = meta_to_msg(leader, id, false, 10, "{}", 1);
+  const MetaMessage good = meta_message(leader, id, false, 10, "{}", 1);
   ASSERT_EQ(replica.apply(good), Applied::kApplied);
   const std::string before = map_digest(replica.map());
 
   struct Case {
     const char* name;
-    std::function<void(msg::MapMeta&)> spoil;
+    std::function<void(MetaMessage&)> spoil;
     const char* expect;
   };
   const std::vector<Case> cases = {
-      {"protocol", [](msg::MapMeta& m) { m.protocol(0); }, "protocol 0"},
-      {"min > max", [](msg::MapMeta& m) { m.min_tx(m.max_tx() + 1); }, "min_tx > max_tx"},
-      {"bounds", [](msg::MapMeta& m) { m.min_ty(-2000000000); }, "reach outside +-1024"},
-      {"tile count", [](msg::MapMeta& m) { m.tile_count(4000000000u); }, "tile_count 4000000000"},
-      {"tile edge change", [](msg::MapMeta& m) { m.tile_edge(128); }, "differs"},
-      {"cell size change", [](msg::MapMeta& m) { m.cell_size(0.15f); }, "differs"},
+      {"protocol", [](MetaMessage& m) { m.protocol = 0; }, "protocol 0"},
+      {"min > max", [](MetaMessage& m) { m.min_tx = m.max_tx + 1; }, "min_tx > max_tx"},
+      {"bounds", [](MetaMessage& m) { m.min_ty = -2000000000; }, "reach outside +-1024"},
+      {"tile count", [](MetaMessage& m) { m.tile_count = 4000000000u; }, "tile_count 4000000000"},
+      {"tile edge change", [](MetaMessage& m) { m.tile_edge = 128; }, "differs"},
+      {"cell size change", [](MetaMessage& m) { m.cell_size = 0.15f; }, "differs"},
       {"newer epoch, absurd bounds",
-       [](msg::MapMeta& m) {
-         m.epoch(m.epoch() + 1);
-         m.max_tx(2000000000);
+       [](MetaMessage& m) {
+         m.epoch = m.epoch + 1;
+         m.max_tx = 2000000000;
        },
        "reach outside"},
   };
   for (const Case& c : cases) {
-    msg::MapMeta bad = good;
-    bad.map_version(good.map_version() + 1000);  // newer, so only validation can stop it
+    MetaMessage bad = good;
+    bad.map_version = good.map_version + 1000;  // newer, so only validation can stop it
     c.spoil(bad);
     std::string error;
     EXPECT_EQ(replica.apply(bad, &error), Applied::kRejected) << c.name;
     EXPECT_NE(error.find(c.expect), std::string::npos) << c.name << ": " << error;
     EXPECT_EQ(replica.epoch(), 4u) << c.name;
-    EXPECT_EQ(replica.meta()->map_version(), good.map_version()) << c.name;
+    EXPECT_EQ(replica.meta()->map_version, good.map_version) << c.name;
   }
   EXPECT_EQ(map_digest(replica.map()), before);
   // An older epoch is another (earlier) map: ignored, not an error.
-  msg::MapMeta old = good;
-  old.epoch(3);
+  MetaMessage old = good;
+  old.epoch = 3;
   EXPECT_EQ(replica.apply(old), Applied::kIgnored);
 }
 
-TEST(MapMessages, TileDeltaToMsgRefusesABadBase) {
-  const GridMap leader = random_map(15);
-  const TileKey k = leader.tile_keys().front();
-  const Tile& t = *leader.find_tile(k);
-  EXPECT_THROW(tile_delta_to_msg(leader, k, t.version, t.hit, t.err, {}, TileEncoding::kMedZlib, 1),
-               std::invalid_argument);
-  const std::vector<std::uint32_t> small(10);
-  EXPECT_THROW(tile_delta_to_msg(leader, k, 0, small, small, {}, TileEncoding::kMedZlib, 1),
-               std::invalid_argument);
-}
-
-TEST(MapMessages, MetaDescribesTheMap) {
-  const GridMap leader = random_map(9);
-  const msg::MapMeta m = meta_to_msg(leader, {"m", 4}, false, 77, "{\"mu\":100}", 5);
-  EXPECT_EQ(m.map_id().to_string(), "m");
-  EXPECT_EQ(m.epoch(), 4u);
-  EXPECT_EQ(m.tile_count(), leader.tile_count());
-  EXPECT_EQ(m.map_version(), map_version(leader));
-  EXPECT_EQ(m.scans(), 77u);
-  EXPECT_FALSE(m.complete());
-  for (const TileKey k : leader.tile_keys()) {
-    EXPECT_GE(k.tx, m.min_tx());
-    EXPECT_LE(k.tx, m.max_tx());
-    EXPECT_GE(k.ty, m.min_ty());
-    EXPECT_LE(k.ty, m.max_ty());
-  }
-  const msg::MapMeta long_params = meta_to_msg(leader, {}, false, 0, std::string(5000, 'x'), 0);
-  EXPECT_EQ(long_params.es_params().size(), 1024u);
-}
-
-TEST(MapMessages, ScanRoundTripAndValidation) {
-  LaserScan s;
-  s.stamp = 12.5;
-  s.angle_min = -1.5f;
-  s.angle_increment = 0.01f;
-  s.max_range = 30.0f;
-  s.ranges = {1.0f, 2.0f, 81.9f};
-  s.odometry = Pose2{1, 2, 0.5};
-  const LaserScan back = scan_from_msg(scan_to_msg("r1", 3, s));
-  EXPECT_EQ(back.ranges, s.ranges);
-  EXPECT_EQ(back.stamp, s.stamp);
-  ASSERT_TRUE(back.odometry.has_value());
-  EXPECT_EQ(*back.odometry, *s.odometry);
-
-  msg::LaserScanMsg m = scan_to_msg("r1", 3, s);
-  m.ranges().clear();
-  EXPECT_THROW(scan_from_msg(m), std::invalid_argument);
-  m = scan_to_msg("r1", 3, s);
-  m.angle_increment(std::nanf(""));
-  EXPECT_THROW(scan_from_msg(m), std::invalid_argument);
-  m = scan_to_msg("r1", 3, s);
-  m.ranges().resize(20000, 1.0f);
-  EXPECT_THROW(scan_from_msg(m), std::invalid_argument);
-}
-
-TEST(MapMessages, TruthRoundTripAndValidation) {
-  const TimedPose truth{1700000000.2, Pose2{-3.25, 12.5, 2.75}};
-  const msg::TruthPose m = truth_to_msg("robot-3", truth);
-  EXPECT_EQ(m.robot_id(), "robot-3");
-  EXPECT_EQ(m.protocol(), msg::kProtocolVersion);
-  const TimedPose back = truth_from_msg(m);
-  EXPECT_EQ(back.stamp, truth.stamp);  // exact: evaluation pairs truth and scans by stamp
-  EXPECT_EQ(back.pose, truth.pose);
-
-  auto expect_rejected = [](const msg::TruthPose& bad, const std::string& field) {
-    try {
-      truth_from_msg(bad);
-      ADD_FAILURE() << "accepted a message with a bad " << field;
-    } catch (const std::invalid_argument& e) {
-      EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
-    }
-  };
-  msg::TruthPose bad = m;
-  bad.protocol(static_cast<std::uint16_t>(msg::kProtocolVersion + 1));
-  expect_rejected(bad, "protocol");
-  bad = m;
-  bad.robot_id("");
-  expect_rejected(bad, "robot_id");
-  bad = m;
-  bad.stamp(std::nan(""));
-  expect_rejected(bad, "stamp");
-  bad = m;
-  bad.y(std::numeric_limits<double>::infinity());
-  expect_rejected(bad, "y");
-  bad = m;
-  bad.theta(std::nan(""));
-  expect_rejected(bad, "theta");
-}
-
 }  // namespace
-}  // namespace esfleet::dds
+}  // namespace esfleet::mapshare

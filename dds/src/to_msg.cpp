@@ -1,0 +1,111 @@
+#include "esfleet/dds/to_msg.hpp"
+
+#include <ctime>
+
+namespace esfleet::dds {
+
+static_assert(mapshare::kProtocolVersion == msg::kProtocolVersion,
+              "mapshare/messages.hpp and idl/esfleet.idl must name the same protocol");
+
+std::int64_t realtime_ns() {
+  timespec ts{};
+  clock_gettime(CLOCK_REALTIME, &ts);
+  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
+}
+
+namespace {
+/// The fields MapTile and MapTileDelta share.
+template <typename Msg>
+Msg tile_fields(mapshare::TileMessage& t) {
+  Msg m;
+  m.map_id(t.map_id);
+  m.tx(t.tx);
+  m.ty(t.ty);
+  m.protocol(t.protocol);
+  m.epoch(t.epoch);
+  m.version(t.version);
+  m.cell_size(t.cell_size);
+  m.tile_edge(t.tile_edge);
+  m.encoding(t.encoding);
+  m.cells(t.cells);
+  m.payload(std::move(t.payload));
+  m.leader_stamp_ns(t.stamp_ns);
+  return m;
+}
+}  // namespace
+
+msg::MapTile tile_to_msg(mapshare::TileMessage tile) { return tile_fields<msg::MapTile>(tile); }
+
+msg::MapTileDelta delta_to_msg(mapshare::TileMessage delta) {
+  msg::MapTileDelta m = tile_fields<msg::MapTileDelta>(delta);
+  m.base_version(delta.base_version.value_or(0));
+  return m;
+}
+
+msg::MapMeta meta_to_msg(const mapshare::MetaMessage& meta) {
+  constexpr std::size_t kMaxParams = 1024;  // string<1024> es_params
+  msg::MapMeta m;
+  m.map_id(meta.map_id);
+  m.protocol(meta.protocol);
+  m.epoch(meta.epoch);
+  m.cell_size(meta.cell_size);
+  m.tile_edge(meta.tile_edge);
+  m.min_tx(meta.min_tx);
+  m.min_ty(meta.min_ty);
+  m.max_tx(meta.max_tx);
+  m.max_ty(meta.max_ty);
+  m.tile_count(meta.tile_count);
+  m.map_version(meta.map_version);
+  m.complete(meta.complete);
+  m.scans(meta.scans);
+  m.es_params(meta.params.size() <= kMaxParams ? meta.params : meta.params.substr(0, kMaxParams));
+  m.stamp_ns(meta.stamp_ns);
+  return m;
+}
+
+msg::RobotPose pose_to_msg(const std::string& robot_id, const TimedPose& pose, float fitness,
+                           std::uint8_t status) {
+  msg::RobotPose m;
+  m.robot_id(robot_id);
+  m.protocol(msg::kProtocolVersion);
+  m.stamp(pose.stamp);
+  m.x(pose.pose.x);
+  m.y(pose.pose.y);
+  m.theta(pose.pose.theta);
+  m.fitness(fitness);
+  m.status(status);
+  return m;
+}
+
+msg::LaserScanMsg scan_to_msg(const std::string& robot_id, std::uint32_t seq,
+                              const LaserScan& scan) {
+  msg::LaserScanMsg m;
+  m.robot_id(robot_id);
+  m.protocol(msg::kProtocolVersion);
+  m.seq(seq);
+  m.stamp(scan.stamp);
+  m.angle_min(scan.angle_min);
+  m.angle_increment(scan.angle_increment);
+  m.max_range(scan.max_range);
+  m.ranges(scan.ranges);
+  m.has_odometry(scan.odometry.has_value());
+  if (scan.odometry) {
+    m.odom_x(scan.odometry->x);
+    m.odom_y(scan.odometry->y);
+    m.odom_theta(scan.odometry->theta);
+  }
+  return m;
+}
+
+msg::TruthPose truth_to_msg(const std::string& robot_id, const TimedPose& pose) {
+  msg::TruthPose m;
+  m.robot_id(robot_id);
+  m.protocol(msg::kProtocolVersion);
+  m.stamp(pose.stamp);
+  m.x(pose.pose.x);
+  m.y(pose.pose.y);
+  m.theta(pose.pose.theta);
+  return m;
+}
+
+}  // namespace esfleet::dds

@@ -1,0 +1,221 @@
+#include "esfleet/mapshare/map_replica.hpp"
+
+#include <bit>
+#include <cmath>
+#include <stdexcept>
+
+namespace esfleet::mapshare {
+
+namespace {
+Applied reject(std::string* error, std::string what) {
+  if (error != nullptr) *error = std::move(what);
+  return Applied::kRejected;
+}
+}  // namespace
+
+MapReplica::MapReplica(std::string map_id, GridMapConfig local)
+    : map_id_(std::move(map_id)), local_(local) {
+  local_.validate();
+}
+
+void MapReplica::reset(std::uint32_t epoch, float cell_size, int tile_edge) {
+  GridMapConfig c = local_;
+  c.cell_size = cell_size;
+  c.tile_edge = tile_edge;
+  if ((1 << c.pyramid_levels) > tile_edge) c.pyramid_levels = 0;
+  map_.reset();
+  map_.emplace(c);
+  epoch_ = epoch;
+  meta_.reset();
+}
+
+std::string MapReplica::check_layout(float cell_size, std::uint32_t tile_edge,
+                                     bool against_map) const {
+  if (!std::isfinite(cell_size) || !(cell_size > 0.0f) || cell_size > 10.0f) {
+    return "cell_size " + std::to_string(cell_size) + " is not in (0, 10] m";
+  }
+  if (tile_edge < 8 || tile_edge > 1024 || !std::has_single_bit(tile_edge)) {
+    return "tile_edge " + std::to_string(tile_edge) + " is not a power of two in [8, 1024]";
+  }
+  if (against_map && map_) {
+    if (static_cast<float>(map_->cell_size()) != cell_size) {
+      return "cell_size " + std::to_string(cell_size) + " differs from the map's " +
+             std::to_string(map_->cell_size());
+    }
+    if (static_cast<std::uint32_t>(map_->tile_edge()) != tile_edge) {
+      return "tile_edge " + std::to_string(tile_edge) + " differs from the map's " +
+             std::to_string(map_->tile_edge());
+    }
+  }
+  return {};
+}
+
+std::string MapReplica::check_tile(const TileMessage& t, bool against_map) const {
+  if (std::string e = check_layout(t.cell_size, t.tile_edge, against_map); !e.empty()) return e;
+  const std::size_t expected = static_cast<std::size_t>(t.tile_edge) * t.tile_edge;
+  if (t.cells != expected) {
+    return "cells " + std::to_string(t.cells) +
+           ", expected tile_edge^2 = " + std::to_string(expected);
+  }
+  if (std::abs(static_cast<std::int64_t>(t.tx)) > local_.max_tile_coord ||
+      std::abs(static_cast<std::int64_t>(t.ty)) > local_.max_tile_coord) {
+    return "tile (" + std::to_string(t.tx) + ", " + std::to_string(t.ty) + ") is outside +-" +
+           std::to_string(local_.max_tile_coord);
+  }
+  if (t.is_delta() && *t.base_version >= t.version) {
+    return "base_version " + std::to_string(*t.base_version) + " is not older than version " +
+           std::to_string(t.version);
+  }
+  if (!t.is_delta() && t.version == 0) return "version 0 (tile versions start at 1)";
+  if (const std::size_t most = max_payload_bytes(expected); t.payload.size() > most) {
+    return "payload of " + std::to_string(t.payload.size()) + " bytes, more than the " +
+           std::to_string(most) + " a tile of " + std::to_string(expected) + " cells can need";
+  }
+  return {};
+}
+
+std::optional<Applied> MapReplica::screen(std::uint16_t protocol, const std::string& map_id,
+                                          std::uint32_t epoch, std::string* error) const {
+  if (protocol != kProtocolVersion) {
+    return reject(error, "protocol " + std::to_string(protocol) + ", expected " +
+                             std::to_string(kProtocolVersion));
+  }
+  if (!map_id_.empty() && map_id != map_id_) return Applied::kIgnored;
+  if (epoch < epoch_) return Applied::kIgnored;
+  return std::nullopt;
+}
+
+Applied MapReplica::apply(const TileMessage& tile, std::string* error) {
+  if (const auto verdict = screen(tile.protocol, tile.map_id, tile.epoch, error)) return *verdict;
+  return tile.is_delta() ? apply_delta(tile, error) : apply_whole(tile, error);
+}
+
+Applied MapReplica::apply_whole(const TileMessage& t, std::string* error) {
+  // A tile of a newer epoch (or the first one) starts a map: only the ranges are checked.
+  const bool fresh = !map_ || t.epoch > epoch_;
+  if (std::string e = check_tile(t, !fresh); !e.empty()) return reject(error, e);
+  if (!fresh) {
+    if (const Tile* have = map_->find_tile(t.key());
+        have != nullptr && have->version >= t.version) {
+      return Applied::kStale;
+    }
+  }
+  try {
+    decode_tile(static_cast<TileEncoding>(t.encoding), t.payload, t.cells, hit_, err_);
+  } catch (const std::exception& e) {
+    return reject(error, std::string("payload: ") + e.what());
+  }
+  if (fresh) {
+    if (map_id_.empty()) map_id_ = t.map_id;
+    reset(t.epoch, t.cell_size, t.tile_edge);
+  }
+  map_->set_tile(t.key(), t.version, hit_, err_);
+  return Applied::kApplied;
+}
+
+Applied MapReplica::apply_delta(const TileMessage& d, std::string* error) {
+  const bool same_map = map_ && d.epoch == epoch_;
+  if (std::string e = check_tile(d, same_map); !e.empty()) return reject(error, e);
+  try {
+    decode_tile(static_cast<TileEncoding>(d.encoding), d.payload, d.cells, hit_, err_);
+  } catch (const std::exception& e) {
+    return reject(error, std::string("payload: ") + e.what());
+  }
+  if (!same_map) return Applied::kNeedsBase;  // a map (or epoch) known only from deltas
+  const Tile* have = map_->find_tile(d.key());
+  if (have != nullptr && have->version >= d.version) return Applied::kStale;
+  if (have == nullptr || have->version != *d.base_version) return Applied::kNeedsBase;
+  for (std::size_t i = 0; i < d.cells; ++i) {
+    hit_[i] += have->hit[i];  // modulo 2^32, the inverse of the leader's subtraction
+    err_[i] += have->err[i];
+  }
+  map_->set_tile(d.key(), d.version, hit_, err_);
+  return Applied::kApplied;
+}
+
+Applied MapReplica::apply(const MetaMessage& m, std::string* error) {
+  if (const auto verdict = screen(m.protocol, m.map_id, m.epoch, error)) return *verdict;
+  const bool new_epoch = m.epoch > epoch_ || !map_;
+  if (std::string e = check_layout(m.cell_size, m.tile_edge, !new_epoch); !e.empty()) {
+    return reject(error, e);
+  }
+  if (m.tile_count > 0) {
+    if (m.min_tx > m.max_tx) return reject(error, "min_tx > max_tx");
+    if (m.min_ty > m.max_ty) return reject(error, "min_ty > max_ty");
+    const std::int64_t limit = local_.max_tile_coord;
+    for (const std::int32_t b : {m.min_tx, m.min_ty, m.max_tx, m.max_ty}) {
+      if (std::abs(static_cast<std::int64_t>(b)) > limit) {
+        return reject(error, "bounds [" + std::to_string(m.min_tx) + ", " +
+                                 std::to_string(m.max_tx) + "] x [" + std::to_string(m.min_ty) +
+                                 ", " + std::to_string(m.max_ty) + "] reach outside +-" +
+                                 std::to_string(limit));
+      }
+    }
+    const std::int64_t area = (static_cast<std::int64_t>(m.max_tx) - m.min_tx + 1) *
+                              (static_cast<std::int64_t>(m.max_ty) - m.min_ty + 1);
+    if (m.tile_count > area) {
+      return reject(error, "tile_count " + std::to_string(m.tile_count) + " exceeds the " +
+                               std::to_string(area) + " tiles of its bounds");
+    }
+  }
+  if (new_epoch) {
+    if (map_id_.empty()) map_id_ = m.map_id;
+    reset(m.epoch, m.cell_size, m.tile_edge);
+  } else if (meta_ && meta_->map_version > m.map_version) {
+    return Applied::kStale;  // an older summary arriving late
+  }
+  meta_ = m;
+  return Applied::kApplied;
+}
+
+bool MapReplica::complete() const {
+  return map_ && meta_ && meta_->complete && meta_->epoch == epoch_ &&
+         meta_->tile_count == map_->tile_count() && meta_->map_version == map_version(*map_);
+}
+
+void ReceiveStats::count_tile(bool delta, Applied outcome) {
+  if (!delta) {
+    ++tiles_received;
+    switch (outcome) {
+      case Applied::kApplied:
+        ++tiles_applied;
+        break;
+      case Applied::kStale:
+        ++tiles_stale;
+        break;
+      case Applied::kIgnored:
+        ++tiles_ignored;
+        break;
+      case Applied::kRejected:
+      case Applied::kNeedsBase:  // not returned for whole tiles
+        ++tiles_rejected;
+        break;
+    }
+    return;
+  }
+  ++deltas_received;
+  switch (outcome) {
+    case Applied::kApplied:
+      ++deltas_applied;
+      break;
+    case Applied::kStale:
+      ++deltas_stale;
+      break;
+    case Applied::kNeedsBase:
+      ++deltas_needs_base;
+      break;
+    case Applied::kIgnored:
+      ++deltas_ignored;
+      break;
+    case Applied::kRejected:
+      ++deltas_rejected;
+      break;
+  }
+}
+
+void ReceiveStats::count_meta(Applied outcome) {
+  ++meta_received;
+  if (outcome == Applied::kRejected) ++meta_rejected;
+}
+
+}  // namespace esfleet::mapshare
