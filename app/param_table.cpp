@@ -1,5 +1,7 @@
 #include "app/param_table.hpp"
 
+#include "app/program.hpp"
+
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
@@ -137,6 +139,7 @@ void ParamTable::bind(CLI::App& app, const std::string& group) {
       ->check(CLI::ExistingFile)
       ->group(group);
   for (Param& p : params_) {
+    p.at_bind = p.get();
     p.option = app.add_option("--" + dashed(p.name), p.cli_value, p.help)
                    ->type_name(p.type)
                    ->default_str(p.get())
@@ -151,7 +154,7 @@ void ParamTable::apply() {
     try {
       p.set(p.cli_value);
     } catch (const std::invalid_argument& e) {
-      throw std::runtime_error("--" + dashed(p.name) + ": " + e.what());
+      throw UsageError("--" + dashed(p.name) + ": " + e.what());
     }
   }
 }
@@ -161,26 +164,26 @@ void ParamTable::load_yaml(const std::string& path) {
   try {
     root = YAML::LoadFile(path);
   } catch (const YAML::BadFile&) {
-    throw std::runtime_error(path + ": cannot open");
+    throw UsageError(path + ": cannot open");
   } catch (const YAML::Exception& e) {
-    throw std::runtime_error(path + ":" + std::to_string(e.mark.line + 1) + ": " + e.msg);
+    throw UsageError(path + ":" + std::to_string(e.mark.line + 1) + ": " + e.msg);
   }
   if (root.IsNull()) return;  // an empty file sets nothing
-  if (!root.IsMap()) throw std::runtime_error(path + ": top level must be a map of parameters");
+  if (!root.IsMap()) throw UsageError(path + ": top level must be a map of parameters");
   for (const auto& kv : root) {
     const auto line = std::to_string(kv.first.Mark().line + 1);
     const std::string key = kv.first.as<std::string>();
     Param* p = find(key);
     if (p == nullptr) {
-      throw std::runtime_error(path + ":" + line + ": unknown parameter '" + key + "'");
+      throw UsageError(path + ":" + line + ": unknown parameter '" + key + "'");
     }
     if (!kv.second.IsScalar()) {
-      throw std::runtime_error(path + ":" + line + ": '" + key + "' must be a single value");
+      throw UsageError(path + ":" + line + ": '" + key + "' must be a single value");
     }
     try {
       p->set(kv.second.Scalar());
     } catch (const std::invalid_argument& e) {
-      throw std::runtime_error(path + ":" + line + ": '" + key + "': " + e.what());
+      throw UsageError(path + ":" + line + ": '" + key + "': " + e.what());
     }
   }
 }
@@ -188,6 +191,24 @@ void ParamTable::load_yaml(const std::string& path) {
 std::vector<std::pair<std::string, std::string>> ParamTable::values() const {
   std::vector<std::pair<std::string, std::string>> out;
   for (const Param& p : params_) out.emplace_back(p.name, p.get());
+  return out;
+}
+
+std::vector<std::pair<std::string, std::string>> ParamTable::changed() const {
+  std::vector<std::pair<std::string, std::string>> out;
+  for (const Param& p : params_) {
+    if (std::string now = p.get(); now != p.at_bind) out.emplace_back(p.name, std::move(now));
+  }
+  return out;
+}
+
+std::string ParamTable::describe_changes() const {
+  const auto c = changed();
+  if (c.empty()) return "all defaults";
+  std::string out = std::to_string(c.size()) + " changed:";
+  for (std::size_t i = 0; i < c.size(); ++i) {
+    out += (i == 0 ? " " : ", ") + c[i].first + " = " + c[i].second;
+  }
   return out;
 }
 

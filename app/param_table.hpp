@@ -53,12 +53,17 @@ class ParamTable {
   /// `--config FILE`.
   void bind(CLI::App& app, const std::string& group = "Parameters");
   /// After CLI parsing: loads --config (if given) then applies the flags given on the command
-  /// line. Throws std::runtime_error with a precise message.
+  /// line. Throws UsageError (app/program.hpp) with a precise message.
   void apply();
   /// Loads a YAML file whose top level is a map of parameter names (snake_case) to values.
   void load_yaml(const std::string& path);
   /// name -> current value as text, for logs and stats.json.
   std::vector<std::pair<std::string, std::string>> values() const;
+  /// The parameters whose value differs from the one they had at bind() (the in-class
+  /// defaults), name -> current value.
+  std::vector<std::pair<std::string, std::string>> changed() const;
+  /// One log line's worth: "all defaults", or "N changed: a = 1, b = on".
+  std::string describe_changes() const;
 
  private:
   struct Param {
@@ -68,6 +73,7 @@ class ParamTable {
     std::function<void(const std::string&)> set;  // throws std::invalid_argument
     std::function<std::string()> get;
     std::string cli_value;
+    std::string at_bind;  ///< the value at bind()
     CLI::Option* option = nullptr;
   };
   /// `type` is what --help shows for the value (FLOAT, INT, on|off, ...).

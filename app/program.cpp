@@ -29,6 +29,13 @@ Program::Program(std::string name, std::string logger, std::string description,
       std::move(logger), std::make_shared<spdlog::sinks::stderr_color_sink_st>()));
   spdlog::set_pattern("[%H:%M:%S.%e] [%^%l%$] %v");
   cli_.set_version_flag("--version", name_ + " " + kVersion);
+  cli_.add_option_function<std::string>(
+          "--log-level",
+          [](const std::string& level) { spdlog::set_level(spdlog::level::from_str(level)); },
+          "log lines at this level and above go to stderr")
+      ->check(CLI::IsMember({"debug", "info", "warn", "error"}).description(""))
+      ->type_name("debug|info|warn|error")
+      ->default_str("info");
   cli_.footer(footer(exit_codes));
 }
 

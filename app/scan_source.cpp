@@ -166,31 +166,4 @@ TopicScanStats TopicScanSource::stats() const {
   return s;
 }
 
-SlamRunStats run_slam(Slam& slam, ScanSource& source, std::size_t max_scans,
-                      const std::atomic<bool>& stop, const StepCallback& on_step) {
-  using Clock = std::chrono::steady_clock;
-  SlamRunStats stats;
-  stats.ms_per_scan.reserve(source.total());
-  // Wall time from the first scan to the last one processed: not the wait for the first scan
-  // on the topic, nor the idle time before the end.
-  std::optional<Clock::time_point> first;
-  Clock::time_point last;
-  while (max_scans == 0 || stats.scans < max_scans) {
-    const std::optional<LaserScan> scan = source.next(stop);
-    if (!scan) {
-      stats.interrupted = !source.ended();
-      break;
-    }
-    const auto t0 = Clock::now();
-    if (!first) first = t0;
-    const SlamStep step = slam.process(*scan);
-    const auto t1 = Clock::now();
-    stats.record(step, std::chrono::duration<double, std::milli>(t1 - t0).count());
-    if (on_step) on_step(*scan, step, stats.scans);
-    last = Clock::now();
-  }
-  if (first) stats.wall_s = std::chrono::duration<double>(last - *first).count();
-  return stats;
-}
-
 }  // namespace esfleet::app

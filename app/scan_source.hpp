@@ -1,5 +1,5 @@
 #pragma once
-// Where scans come from (leader and follower), and the loop that runs them through the SLAM.
+// Where scans come from (leader and follower).
 //
 // A ScanSource hands out scans in order on the application thread: LogScanSource from a
 // recorded log (optionally paced at the recorded speed), TopicScanSource from the DDS scan topic
@@ -18,10 +18,8 @@
 #include <string>
 #include <vector>
 
-#include "app/slam_run.hpp"
 #include "esfleet/core/carmen_reader.hpp"
 #include "esfleet/core/laser_scan.hpp"
-#include "esfleet/core/slam.hpp"
 #include "esfleet/dds/reader.hpp"
 
 namespace esfleet::app {
@@ -138,15 +136,5 @@ class TopicScanSource : public ScanSource {
 
   dds::ScanReader reader_;  ///< last: destroyed first, so no callback outlives the queue
 };
-
-/// Called after each scan: the scan, what the SLAM did with it, scans processed so far.
-using StepCallback = std::function<void(const LaserScan&, const SlamStep&, std::size_t)>;
-
-/// Runs the scans of `source` through `slam` in order until the source ends, `max_scans` scans
-/// were processed (0 = no limit) or `stop` is set (then interrupted = true, unless the source
-/// had ended anyway). Statistics as SlamRunStats::record keeps them; wall_s runs from the
-/// first scan to the end of the last (without the wait for the first scan and the idle end).
-SlamRunStats run_slam(Slam& slam, ScanSource& source, std::size_t max_scans,
-                      const std::atomic<bool>& stop, const StepCallback& on_step = {});
 
 }  // namespace esfleet::app

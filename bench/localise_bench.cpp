@@ -11,7 +11,7 @@
 
 #include "app/localise_params.hpp"
 #include "app/slam_params.hpp"
-#include "app/slam_run.hpp"
+#include "app/summary.hpp"
 #include "esfleet/core/fitness.hpp"
 #include "esfleet/core/map_io.hpp"
 #include "esfleet/core/relations.hpp"

@@ -5,7 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "app/slam_params.hpp"
-#include "app/slam_run.hpp"
+#include "app/summary.hpp"
 #include "esfleet/core/map_io.hpp"
 
 namespace esfleet::bench {

@@ -25,7 +25,7 @@
 #include <sstream>
 #include <thread>
 
-#include "app/slam_run.hpp"
+#include "app/summary.hpp"
 #include "esfleet/core/map_io.hpp"
 #include "esfleet/dds/node.hpp"
 #include "esfleet/dds/reader.hpp"

@@ -1,5 +1,7 @@
 #include "checkpoint.hpp"
 
+#include <spdlog/spdlog.h>
+
 #include <chrono>
 #include <filesystem>
 #include <fstream>
@@ -8,6 +10,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "app/summary.hpp"
 #include "esfleet/core/map_io.hpp"
 #include "esfleet/core/slam_snapshot.hpp"
 
@@ -177,6 +180,77 @@ Resumed load_checkpoint(const std::string& dir, Slam& slam) {
     throw std::runtime_error(journal_path.string() + ": " + e.what());
   }
   return r;
+}
+
+namespace {
+/// The generation the checkpoint directory `dir` starts at: the resumed checkpoint's next one
+/// when it is that directory; otherwise 1, after moving an old checkpoint there aside.
+std::uint64_t first_generation(const std::string& dir, const std::string& out_dir,
+                               const std::string& resume_dir, const Resumed* resumed) {
+  std::error_code ec;
+  if (resumed != nullptr && fs::equivalent(fs::path(resume_dir) / "checkpoint", dir, ec)) {
+    return resumed->generation + 1;
+  }
+  if (fs::exists(dir + "/manifest.json")) {
+    fs::remove_all(dir + ".old", ec);
+    fs::rename(dir, dir + ".old", ec);
+    spdlog::warn("moved the old checkpoint {} to {}.old (start with --resume {} to continue it)",
+                 dir, dir, out_dir);
+  }
+  return 1;
+}
+}  // namespace
+
+CheckpointSchedule::CheckpointSchedule(const std::string& out_dir, std::size_t every,
+                                       CheckpointInfo info, const std::string& resume_dir,
+                                       const Resumed* resumed)
+    : every_(every),
+      info_(std::move(info)),
+      checkpointer_(out_dir + "/checkpoint",
+                    first_generation(out_dir + "/checkpoint", out_dir, resume_dir, resumed)) {
+  if (resumed != nullptr) checkpointer_.adopt_journal(resumed->journal);
+}
+
+void CheckpointSchedule::after_scan(const Slam& slam) {
+  if (every_ > 0 && slam.scans_processed() % every_ == 0) save(slam, nullptr);
+}
+
+void CheckpointSchedule::save(const Slam& slam, const char* why) {
+  const auto t0 = std::chrono::steady_clock::now();
+  info_.scans = slam.scans_processed();
+  try {
+    bytes_last_ = checkpointer_.save(slam, info_);
+  } catch (const std::exception& e) {
+    spdlog::error("checkpoint at scan {} failed: {}", slam.scans_processed(), e.what());
+    return;
+  }
+  ms_.push_back(
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+  if (ms_.size() == 1 || ms_.size() % 20 == 0 || why != nullptr) {
+    spdlog::info("checkpoint {} at scan {}{}: {:.0f} kB in {:.1f} ms", ms_.size(),
+                 slam.scans_processed(), why != nullptr ? fmt::format(" ({})", why) : "",
+                 static_cast<double>(bytes_last_) / 1e3, ms_.back());
+  }
+}
+
+void CheckpointSchedule::reserve(const GridMap& map) {
+  try {
+    checkpointer_.reserve(map);
+  } catch (const std::exception& e) {
+    if (!reserve_failed_logged_) spdlog::error("publish journal: {}", e.what());
+    reserve_failed_logged_ = true;
+  }
+}
+
+nlohmann::json CheckpointSchedule::stats() const {
+  const app::Summary c = app::summarize(ms_);
+  return {{"dir", checkpointer_.dir()},
+          {"every", every_},
+          {"written", ms_.size()},
+          {"ms_median", c.median},
+          {"ms_max", c.max},
+          {"bytes_last", bytes_last_},
+          {"version_ceiling", checkpointer_.journal().version_ceiling}};
 }
 
 }  // namespace esfleet::leader

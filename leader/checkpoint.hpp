@@ -19,6 +19,10 @@
 // lacks are created empty, so every tile the followers hold is replaced by a newer version.
 
 #include <cstdint>
+#include <optional>
+#include <vector>
+
+#include <nlohmann/json.hpp>
 #include <string>
 
 #include "esfleet/core/grid_map.hpp"
@@ -80,5 +84,39 @@ struct Resumed {
 /// the new versions.
 /// Throws std::runtime_error naming the file and field on a missing or corrupt checkpoint.
 Resumed load_checkpoint(const std::string& dir, Slam& slam);
+
+/// The checkpoints of one leader run (`--checkpoint-every N`): OUT/checkpoint written every N
+/// scans and at the end, and the publish journal kept ahead of every publish. A failure to
+/// write is logged, never fatal: mapping and sharing go on (only a resumed leader could then
+/// fail to supersede tiles).
+class CheckpointSchedule {
+ public:
+  /// Opens `out_dir`/checkpoint for map `info` (its scans field is filled in at each save).
+  /// When `resumed` was loaded from that same directory its generations continue, and its
+  /// journal is adopted; an unrelated old checkpoint there is moved aside to checkpoint.old (a
+  /// fresh start must not overwrite the map an operator may still want to resume). Throws
+  /// std::runtime_error naming the directory.
+  CheckpointSchedule(const std::string& out_dir, std::size_t every, CheckpointInfo info,
+                     const std::string& resume_dir = {}, const Resumed* resumed = nullptr);
+
+  /// After each scan: saves when the scans processed are a multiple of `every`.
+  void after_scan(const Slam& slam);
+  /// Saves now; `why` (e.g. "end of input") goes into the log line.
+  void save(const Slam& slam, const char* why);
+  /// Before a publish of `map`: keeps the journal ahead of it.
+  void reserve(const GridMap& map);
+
+  /// stats.json "checkpoint": directory, period, saves, median and max ms, last size, ceiling.
+  nlohmann::json stats() const;
+  const Checkpointer& checkpointer() const { return checkpointer_; }
+
+ private:
+  std::size_t every_;
+  CheckpointInfo info_;
+  Checkpointer checkpointer_;
+  std::vector<double> ms_;  ///< duration of each save
+  std::uint64_t bytes_last_ = 0;
+  bool reserve_failed_logged_ = false;
+};
 
 }  // namespace esfleet::leader

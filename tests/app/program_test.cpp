@@ -78,5 +78,22 @@ TEST(ParamTable, HelpShowsEachValueType) {
   EXPECT_EQ(help.find("TEXT="), std::string::npos) << help;
 }
 
+TEST(ParamTable, DescribesWhatDiffersFromTheDefaults) {
+  double d = 0.5;
+  int i = 3;
+  ParamTable t;
+  t.add_double("alpha_xy", &d, "a length");
+  t.add_int("mu", &i, "parents");
+  CLI::App app;
+  t.bind(app);
+  EXPECT_EQ(t.describe_changes(), "all defaults");
+  const char* argv[] = {"x", "--mu", "50"};
+  app.parse(3, const_cast<char**>(argv));
+  t.apply();
+  EXPECT_EQ(t.describe_changes(), "1 changed: mu = 50");
+  d = 0.25;  // e.g. --paper replaced the configuration
+  EXPECT_EQ(t.describe_changes(), "2 changed: alpha_xy = 0.25, mu = 50");
+}
+
 }  // namespace
 }  // namespace esfleet::app

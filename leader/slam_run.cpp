@@ -1,15 +1,16 @@
-#include "app/slam_run.hpp"
+#include "slam_run.hpp"
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
 
+#include "app/summary.hpp"
 #include "esfleet/core/map_io.hpp"
 #include "esfleet/core/tile_codec.hpp"
 #include "esfleet/core/trajectory_io.hpp"
 
-namespace esfleet::app {
+namespace esfleet::leader {
 
 void SlamRunStats::record(const SlamStep& step, double ms) {
   ms_per_scan.push_back(ms);
@@ -24,24 +25,31 @@ void SlamRunStats::record(const SlamStep& step, double ms) {
   }
 }
 
-Summary summarize(std::vector<double> v) {
-  Summary s;
-  if (v.empty()) return s;
-  std::sort(v.begin(), v.end());
-  auto quantile = [&](double q) {
-    const double pos = q * static_cast<double>(v.size() - 1);
-    const auto lo = static_cast<std::size_t>(std::floor(pos));
-    const auto hi = std::min(lo + 1, v.size() - 1);
-    return v[lo] + (pos - static_cast<double>(lo)) * (v[hi] - v[lo]);
-  };
-  s.median = quantile(0.5);
-  s.p95 = quantile(0.95);
-  s.p99 = quantile(0.99);
-  s.max = v.back();
-  double sum = 0;
-  for (double x : v) sum += x;
-  s.mean = sum / static_cast<double>(v.size());
-  return s;
+SlamRunStats run_slam(Slam& slam, app::ScanSource& source, std::size_t max_scans,
+                      const std::atomic<bool>& stop, const StepCallback& on_step) {
+  using Clock = std::chrono::steady_clock;
+  SlamRunStats stats;
+  stats.ms_per_scan.reserve(source.total());
+  // Wall time from the first scan to the last one processed: not the wait for the first scan
+  // on the topic, nor the idle time before the end.
+  std::optional<Clock::time_point> first;
+  Clock::time_point last;
+  while (max_scans == 0 || stats.scans < max_scans) {
+    const std::optional<LaserScan> scan = source.next(stop);
+    if (!scan) {
+      stats.interrupted = !source.ended();
+      break;
+    }
+    const auto t0 = Clock::now();
+    if (!first) first = t0;
+    const SlamStep step = slam.process(*scan);
+    const auto t1 = Clock::now();
+    stats.record(step, std::chrono::duration<double, std::milli>(t1 - t0).count());
+    if (on_step) on_step(*scan, step, stats.scans);
+    last = Clock::now();
+  }
+  if (first) stats.wall_s = std::chrono::duration<double>(last - *first).count();
+  return stats;
 }
 
 void write_slam_outputs(const std::string& dir, const Slam& slam, const SlamRunStats& stats,
@@ -52,7 +60,7 @@ void write_slam_outputs(const std::string& dir, const Slam& slam, const SlamRunS
   write_trajectory(dir + "/trajectory.txt", slam.trajectory());
   write_file_atomically(dir + "/map.digest", map_digest(slam.map()));
 
-  const Summary ms = summarize(stats.ms_per_scan);
+  const app::Summary ms = app::summarize(stats.ms_per_scan);
   const GridMap::Bounds b = slam.map().known_bounds();
   const double cs = slam.map().cell_size();
   nlohmann::json j = extra;
@@ -64,10 +72,10 @@ void write_slam_outputs(const std::string& dir, const Slam& slam, const SlamRunS
   j["ms_per_scan_p95"] = ms.p95;
   j["ms_per_scan_max"] = ms.max;
   j["ms_per_scan_mean"] = ms.mean;
-  j["search_ms_median"] = summarize(stats.search_ms).median;
-  j["search_ms_p95"] = summarize(stats.search_ms).p95;
-  j["update_ms_median"] = summarize(stats.update_ms).median;
-  j["agreement_median"] = summarize(stats.agreement).median;
+  j["search_ms_median"] = app::summarize(stats.search_ms).median;
+  j["search_ms_p95"] = app::summarize(stats.search_ms).p95;
+  j["update_ms_median"] = app::summarize(stats.update_ms).median;
+  j["agreement_median"] = app::summarize(stats.agreement).median;
   j["weak_matches"] = stats.weak_matches;
   j["loop_closures"] = slam.loop_closures();
   j["loop_closures_rejected"] = slam.loop_closures_rejected();
@@ -82,4 +90,4 @@ void write_slam_outputs(const std::string& dir, const Slam& slam, const SlamRunS
   write_file_atomically(dir + "/stats.json", j.dump(2) + "\n");
 }
 
-}  // namespace esfleet::app
+}  // namespace esfleet::leader

@@ -1,5 +1,6 @@
 #pragma once
-// Statistics of a SLAM run and writing its results (map files, trajectory, stats.json).
+// The leader's SLAM loop over a scan source, its statistics, and its result files (map files,
+// trajectory, map digest, stats.json).
 
 #include <atomic>
 #include <functional>
@@ -8,10 +9,11 @@
 
 #include <nlohmann/json.hpp>
 
+#include "app/scan_source.hpp"
 #include "esfleet/core/laser_scan.hpp"
 #include "esfleet/core/slam.hpp"
 
-namespace esfleet::app {
+namespace esfleet::leader {
 
 struct SlamRunStats {
   std::size_t scans = 0;
@@ -23,22 +25,26 @@ struct SlamRunStats {
   /// occupied ones (FitnessValue::agreement() < 0.5): the search is likely stuck or lost.
   std::size_t weak_matches = 0;
   std::vector<double> agreement;  ///< per scan (after the first)
+  double wall_s = 0.0;            ///< first scan to the end of the last one
+  bool interrupted = false;       ///< stopped by the stop flag before the source ended
 
   /// Adds one processed scan: its step and the wall time of Slam::process.
   void record(const SlamStep& step, double ms);
-  double wall_s = 0.0;
-  bool interrupted = false;
 };
 
-/// Median, p95, p99, max and mean of a sample (milliseconds in, same out); zeros when empty.
-struct Summary {
-  double median = 0, p95 = 0, p99 = 0, max = 0, mean = 0;
-};
-Summary summarize(std::vector<double> values);
+/// Called after each scan: the scan, what the SLAM did with it, scans processed so far.
+using StepCallback = std::function<void(const LaserScan&, const SlamStep&, std::size_t)>;
+
+/// Runs the scans of `source` through `slam` in order until the source ends, `max_scans` scans
+/// were processed (0 = no limit) or `stop` is set (then interrupted = true, unless the source
+/// had ended anyway). wall_s runs from the first scan to the end of the last (without the wait
+/// for the first scan and the idle end).
+SlamRunStats run_slam(Slam& slam, app::ScanSource& source, std::size_t max_scans,
+                      const std::atomic<bool>& stop, const StepCallback& on_step = {});
 
 /// Writes map.pgm, map.yaml, map.png, trajectory.txt, map.digest (tile_codec.hpp) and stats.json
 /// into `dir` (created if needed), each atomically. `extra` is merged into stats.json.
 void write_slam_outputs(const std::string& dir, const Slam& slam, const SlamRunStats& stats,
                         const nlohmann::json& extra);
 
-}  // namespace esfleet::app
+}  // namespace esfleet::leader

@@ -1,0 +1,15 @@
+#pragma once
+// Order statistics of a sample, as every program reports them (stats.json, logs, benchmarks).
+
+#include <vector>
+
+namespace esfleet::app {
+
+/// Median, p95, p99, max and mean of a sample; zeros when empty.
+struct Summary {
+  double median = 0, p95 = 0, p99 = 0, max = 0, mean = 0;
+};
+/// Quantiles interpolate linearly between the sorted values (numpy's default).
+Summary summarize(std::vector<double> values);
+
+}  // namespace esfleet::app

@@ -1,0 +1,78 @@
+#include "follower_options.hpp"
+
+#include <stdexcept>
+
+#include "app/dds_flags.hpp"
+#include "app/localise_params.hpp"
+#include "app/slam_params.hpp"
+
+namespace esfleet::follower {
+
+void FollowerOptions::validate() const {
+  localiser.validate();
+  if (timeout < 0.0 || rate < 0.0 || idle_exit < 0.0 || leader_timeout < 0.0) {
+    throw std::invalid_argument("--timeout, --rate, --idle-exit and --leader-timeout must be >= 0");
+  }
+  if (!log.empty() && !scan_robot.empty()) {
+    throw std::invalid_argument("give at most one of --log FILE and --scan-topic ROBOT_ID");
+  }
+}
+
+void add_follower_flags(CLI::App& cli, FollowerOptions& o, app::ParamTable& params) {
+  app::add_dds_flags(cli, o.domain, o.profile, o.secure);
+  cli.add_option("--map-id", o.map_id, "map to follow (default: the first one seen)");
+  cli.add_option("--save-map", o.save_dir, "directory to save the map into (at exit, SIGUSR1)");
+  cli.add_flag("--exit-when-complete", o.exit_when_complete,
+               "without scans: exit (saving) once the leader's map is final and every tile is "
+               "here");
+  cli.add_option("--timeout", o.timeout, "stop after this many seconds (0 = no limit)")
+      ->capture_default_str();
+  cli.add_option("--leader-timeout", o.leader_timeout,
+                 "report the leader gone when no map summary came for S seconds while it was "
+                 "mapping (0 = only when DDS reports its writers gone); the map and tracking "
+                 "are kept either way")
+      ->capture_default_str();
+  auto* log_opt =
+      cli.add_option("--log", o.log, "this robot's scans from a CARMEN log (localise in the map)");
+  cli.add_option("--scan-topic", o.scan_robot,
+                 "this robot's scans from the DDS scan topic, published under this robot id")
+      ->excludes(log_opt);
+  cli.add_option("--rate", o.rate,
+                 "--log: replay speed (1 = recorded speed, 0 = as fast as possible)")
+      ->capture_default_str();
+  cli.add_option("--max-scans", o.max_scans, "--log: read the first N scans (0 = all)")
+      ->capture_default_str();
+  cli.add_option("--first-scan", o.first_scan,
+                 "--log: start at this scan (skip the ones before; counted from 0)")
+      ->capture_default_str();
+  cli.add_option("--idle-exit", o.idle_exit,
+                 "--scan-topic: end once no scan arrived for this many seconds (0 = never)")
+      ->capture_default_str();
+  cli.add_option("--latest-only", o.latest_only,
+                 "--scan-topic: when scans are waiting, process the newest and skip the older "
+                 "ones (real time: no backlog after a global search); false = every scan in order")
+      ->capture_default_str();
+  cli.add_option("--robot-id", o.robot_id, "this robot's id on the pose topic")
+      ->capture_default_str();
+  cli.add_option("--hint", o.hint,
+                 "start pose guess x,y,theta_deg[,radius_m[,angle_deg]] (default radius 1 m, "
+                 "angle 30 deg); without it the search is global");
+  cli.add_flag("--wait-complete", o.wait_complete,
+               "hold the scans until the leader's map is complete (tests, benchmarks)");
+  cli.add_option("--trajectory", o.trajectory_path,
+                 "write the tracked poses (stamp x y theta per line) to this file at exit");
+  app::add_slam_params(params, &o.slam, &o.reader);
+  app::add_localise_params(params, &o.localiser);
+  params.bind(cli, "Localisation parameters (tracking uses the SLAM's)");
+}
+
+void finish_follower_options(FollowerOptions& o, app::ParamTable& params) {
+  params.apply();
+  o.parameter_changes = params.describe_changes();
+  if (!o.hint.empty()) o.localiser.hint = app::parse_hint(o.hint);
+  o.localiser.slam = o.slam;
+  o.localiser.seed = o.slam.seed;
+  o.validate();
+}
+
+}  // namespace esfleet::follower

@@ -1,0 +1,287 @@
+#include "leader_app.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+#include <functional>
+#include <thread>
+#include <vector>
+
+#include "app/program.hpp"
+#include "app/summary.hpp"
+#include "esfleet/dds/to_msg.hpp"
+
+namespace esfleet::leader {
+
+namespace {
+
+/// Progress line every this many scans when the total is not known (--scan-topic).
+constexpr std::size_t kTopicProgressEvery = 100;
+
+/// Runs one set-up step; any failure becomes a UsageError naming the step.
+void step(const std::string& what, const std::function<void()>& body) {
+  try {
+    body();
+  } catch (const std::exception& e) {
+    throw app::UsageError(what.empty() ? e.what() : what + ": " + e.what());
+  }
+}
+
+nlohmann::json params_json(const LeaderOptions& o) {
+  nlohmann::json j = nlohmann::json::object();
+  for (const auto& [name, value] : o.parameters) j[name] = value;
+  return j;
+}
+
+/// Parameters whose values differ between a checkpoint and this run, as "name (a -> b)".
+std::string changed_params(const std::string& saved_json, const nlohmann::json& now) {
+  const nlohmann::json saved = nlohmann::json::parse(saved_json);
+  std::string out;
+  for (const auto& [name, value] : now.items()) {
+    const std::string was = saved.contains(name) ? saved[name].dump() : "(none)";
+    if (was != value.dump())
+      out += (out.empty() ? "" : ", ") + name + " (" + was + " -> " + value.dump() + ")";
+  }
+  return out;
+}
+
+/// stats.json "dds": what map sharing sent, against republishing the whole map; logs a summary.
+nlohmann::json dds_stats(const PublishStats& p, const LeaderOptions& o, double input_s) {
+  const std::uint64_t sent_bytes = p.tile_bytes + p.delta_bytes + p.meta_bytes + p.pose_bytes;
+  const auto sent = static_cast<double>(sent_bytes);
+  const auto full = static_cast<double>(p.full_map_bytes);
+  const double per_s = input_s > 0 ? sent / input_s : 0.0;
+  const double ratio = sent > 0 ? full / sent : 0.0;
+  spdlog::info(
+      "published {} tiles and {} tile deltas, {:.1f} kB in all ({:.0f} B per log second); the "
+      "whole map at every publish would be {:.1f} kB ({:.1f}x more)",
+      p.tiles, p.deltas, sent / 1e3, per_s, full / 1e3, ratio);
+  return {
+      {"domain", o.domain},
+      {"map_id", *o.map_id},
+      {"epoch", *o.epoch},
+      {"publish_period_s", o.publish_period},
+      {"publishes", p.publishes},
+      {"tiles_published", p.tiles},
+      {"tile_bytes", p.tile_bytes},
+      {"deltas_published", p.deltas},
+      {"delta_bytes", p.delta_bytes},
+      {"full_every", o.full_every},
+      {"full_period_s", o.full_period},
+      {"meta_bytes", p.meta_bytes},
+      {"pose_bytes", p.pose_bytes},
+      {"bytes_total", sent_bytes},
+      {"log_duration_s", input_s},
+      {"bytes_per_log_s", per_s},
+      {"full_map_bytes", p.full_map_bytes},
+      {"full_map_over_tiles", ratio},
+      {"write_failures", p.write_failures},
+      {"joiner_refreshes", p.joiner_refreshes},
+  };
+}
+
+}  // namespace
+
+LeaderApp::LeaderApp(LeaderOptions options, const std::atomic<bool>& stop)
+    : o_(std::move(options)), stop_(stop), params_json_(params_json(o_).dump()), slam_(o_.slam) {
+  if (!o_.resume_dir.empty()) resume_checkpoint();
+  if (!o_.log.empty()) read_log();
+  spdlog::info("SLAM parameters: {}{}; all {} in stats.json and at --log-level debug",
+               o_.paper ? "the paper's configuration, " : "", o_.parameter_changes,
+               o_.parameters.size());
+  for (const auto& [name, value] : o_.parameters) spdlog::debug("  {} = {}", name, value);
+  if (!o_.offline) open_dds();
+  if (o_.checkpoint_every > 0) open_checkpoints();
+  progress_every_ =
+      source_->total() > 0 ? std::max<std::size_t>(1, source_->total() / 20) : kTopicProgressEvery;
+}
+
+LeaderApp::~LeaderApp() = default;  // members in reverse: checkpoints, source, publisher, node
+
+void LeaderApp::resume_checkpoint() {
+  step("--resume " + o_.resume_dir, [&] {
+    resumed_ = load_checkpoint(o_.resume_dir, slam_);
+    const std::string changed = changed_params(resumed_->info.params_json, params_json(o_));
+    if (!changed.empty()) {
+      throw std::invalid_argument("the SLAM parameters differ from the checkpoint's: " + changed);
+    }
+    const CheckpointInfo& info = resumed_->info;
+    if (o_.map_id && *o_.map_id != info.map_id) {
+      throw std::invalid_argument("--map-id " + *o_.map_id + " but the checkpoint's map is " +
+                                  info.map_id);
+    }
+    if (o_.epoch && *o_.epoch != info.epoch) {
+      throw std::invalid_argument("--epoch " + std::to_string(*o_.epoch) +
+                                  " but the checkpoint's epoch is " + std::to_string(info.epoch));
+    }
+    o_.map_id = info.map_id;
+    o_.epoch = info.epoch;
+  });
+  spdlog::info(
+      "resumed map '{}' epoch {} from {}/checkpoint: {} scans ({}), {} tiles ({} empty ones "
+      "the followers may hold), all republished at version {}",
+      *o_.map_id, *o_.epoch, o_.resume_dir, resumed_->info.scans, resumed_->info.input,
+      slam_.map().tile_count(), resumed_->tiles_added_empty, resumed_->new_version);
+}
+
+void LeaderApp::read_log() {
+  step("", [&] {
+    std::vector<LaserScan> scans =
+        app::read_log(o_.log, o_.reader, o_.max_scans, o_.slam.use_odometry, stop_);
+    if (resumed_) {
+      const std::size_t skip = resumed_->info.scans;
+      if (skip > scans.size()) {
+        throw std::invalid_argument("--resume: the checkpoint has " + std::to_string(skip) +
+                                    " scans but " + o_.log + " only " +
+                                    std::to_string(scans.size()));
+      }
+      if (resumed_->info.input != o_.input_name()) {
+        spdlog::warn("the checkpoint mapped {}; continuing with log {}", resumed_->info.input,
+                     o_.log);
+      }
+      scans.erase(scans.begin(), scans.begin() + static_cast<std::ptrdiff_t>(skip));
+      spdlog::info("continuing {} at scan {}", o_.log, skip);
+    }
+    source_ = std::make_unique<app::LogScanSource>(std::move(scans), o_.rate);
+  });
+  spdlog::info("{}: {} scans", o_.log, source_->total());
+}
+
+void LeaderApp::open_dds() {
+  if (!o_.map_id) o_.map_id = "map";
+  if (!o_.epoch) o_.epoch = static_cast<std::uint32_t>(dds::realtime_ns() / 1'000'000'000);
+  step("DDS", [&] {
+    node_ = std::make_unique<dds::Node>(
+        dds::NodeOptions{o_.domain, o_.profile, "esfleet-leader", o_.secure});
+    publisher_ = std::make_unique<MapPublisher>(
+        *node_, mapshare::MapIdentity{*o_.map_id, *o_.epoch}, o_.robot_id, o_.encoding,
+        mapshare::DeltaPolicy{o_.full_every, o_.full_period});
+    if (!o_.scan_robot.empty()) {
+      auto t = std::make_unique<app::TopicScanSource>(*node_, o_.scan_robot, o_.idle_exit);
+      topic_ = t.get();
+      source_ = std::move(t);
+    }
+  });
+  spdlog::info("sharing map '{}' epoch {} on DDS domain {}{}", *o_.map_id, *o_.epoch, o_.domain,
+               o_.profile.empty() ? "" : " with profile " + o_.profile);
+  if (topic_ != nullptr) {
+    spdlog::info("mapping the scans of robot '{}' from {}; {}", o_.scan_robot, dds::kScanTopic,
+                 o_.idle_exit > 0 ? fmt::format("ending {} s after the last one", o_.idle_exit)
+                                  : std::string("until stopped (Ctrl-C)"));
+  }
+}
+
+void LeaderApp::open_checkpoints() {
+  const std::string dir = o_.out_dir + "/checkpoint";
+  step("checkpoint directory " + dir, [&] {
+    checkpoints_.emplace(o_.out_dir, o_.checkpoint_every,
+                         CheckpointInfo{o_.map_id.value_or("map"), o_.epoch.value_or(0), 0,
+                                        o_.input_name(), params_json_},
+                         o_.resume_dir, resumed_ ? &*resumed_ : nullptr);
+  });
+}
+
+void LeaderApp::publish(bool complete, float fitness) {
+  if (checkpoints_) checkpoints_->reserve(slam_.map());
+  publisher_->publish(slam_.map(), slam_.trajectory().back(), fitness, complete,
+                      static_cast<std::uint32_t>(slam_.scans_processed()), params_json_);
+}
+
+void LeaderApp::on_scan(const LaserScan& scan, const SlamStep& step, std::size_t done) {
+  if (!first_stamp_) first_stamp_ = scan.stamp;
+  if (checkpoints_) checkpoints_->after_scan(slam_);
+  last_stamp_ = scan.stamp;
+  if (publisher_ && scan.stamp - last_publish_ >= o_.publish_period) {
+    publish(false, step.fitness.fitness);
+    last_publish_ = scan.stamp;
+  }
+  if (done % progress_every_ == 0 || done == source_->total()) {
+    spdlog::info("scan {}{}  pose ({:.2f}, {:.2f}, {:.1f} deg)  fitness {:.1f}  tiles {}", done,
+                 source_->total() > 0 ? fmt::format("/{}", source_->total()) : "", step.pose.x,
+                 step.pose.y, rad_to_deg(step.pose.theta), step.fitness.fitness,
+                 slam_.map().tile_count());
+  }
+}
+
+int LeaderApp::run() {
+  if (resumed_ && publisher_) {
+    // Supersede what the dead leader published now, not at the next scan (which may be long).
+    publisher_->republish_all(slam_.map());
+    publish(false, 0.0f);
+  }
+  const SlamRunStats stats = run_slam(slam_, *source_, o_.max_scans, stop_,
+                                      [this](const LaserScan& scan, const SlamStep& s,
+                                             std::size_t done) { on_scan(scan, s, done); });
+  if (checkpoints_) checkpoints_->save(slam_, stats.interrupted ? "interrupted" : "end of input");
+  if (stats.scans == 0 && !resumed_) {
+    spdlog::warn("no scan received: nothing to save");
+    return stats.interrupted ? app::kExitInterrupted : app::kExitFailure;
+  }
+  if (stats.interrupted) {
+    spdlog::warn("interrupted after {} scans: saving what we have", stats.scans);
+  }
+  const nlohmann::json extra = extra_stats(stats);
+  try {
+    write_slam_outputs(o_.out_dir, slam_, stats, extra);
+  } catch (const std::exception& e) {
+    spdlog::error("writing results to {}: {}", o_.out_dir, e.what());
+    return app::kExitFailure;
+  }
+  const app::Summary ms = app::summarize(stats.ms_per_scan);
+  spdlog::info("{} scans in {:.1f} s: {:.2f} ms/scan median, {:.2f} p95, {:.2f} max; wrote {}",
+               stats.scans, stats.wall_s, ms.median, ms.p95, ms.max, o_.out_dir);
+  if (publisher_ && !stats.interrupted) serve(stats);
+  if (publisher_ && !publisher_->flush(std::chrono::seconds(2))) {
+    spdlog::warn("not every follower acknowledged the last samples");
+  }
+  return stats.interrupted ? app::kExitInterrupted : app::kExitOk;
+}
+
+nlohmann::json LeaderApp::extra_stats(const SlamRunStats& stats) {
+  nlohmann::json extra;
+  if (topic_ != nullptr) {
+    const app::TopicScanStats t = topic_->stats();
+    extra["scan_topic"] = {{"robot_id", o_.scan_robot},    {"received", t.received},
+                           {"malformed", t.malformed},     {"other_robots", t.other_robots},
+                           {"seq_gaps", t.seq_gaps},       {"seq_restarts", t.seq_restarts},
+                           {"max_queue", t.max_queue},     {"idle_exit_s", o_.idle_exit},
+                           {"ended_idle", topic_->ended()}};
+    spdlog::info(
+        "scan topic: {} scans of '{}' received, {} malformed, {} missing (seq), "
+        "{} of other robots; at most {} waiting for the SLAM",
+        t.received, o_.scan_robot, t.malformed, t.seq_gaps, t.other_robots, t.max_queue);
+  } else {
+    extra["log"] = o_.log;
+  }
+  extra["paper_mode"] = o_.paper;
+  if (checkpoints_) extra["checkpoint"] = checkpoints_->stats();
+  if (resumed_) {
+    extra["resumed"] = {{"from", o_.resume_dir},
+                        {"scans", resumed_->info.scans},
+                        {"tiles_added_empty", resumed_->tiles_added_empty},
+                        {"version", resumed_->new_version}};
+  }
+  extra["parameters"] = params_json(o_);
+  if (publisher_) {
+    publish(!stats.interrupted, 0.0f);
+    extra["dds"] =
+        dds_stats(publisher_->stats(), o_, first_stamp_ ? last_stamp_ - *first_stamp_ : 0);
+  }
+  return extra;
+}
+
+void LeaderApp::serve(const SlamRunStats& stats) {
+  const std::string why = topic_ == nullptr ? std::string("log ended")
+                          : topic_->ended() ? fmt::format("no scan for {} s", o_.idle_exit)
+                                            : fmt::format("{} scans mapped", stats.scans);
+  spdlog::info(
+      "{}: map complete; serving it {}", why,
+      o_.linger < 0 ? std::string("until stopped (Ctrl-C)") : fmt::format("for {} s", o_.linger));
+  using Clock = std::chrono::steady_clock;
+  const auto until = Clock::now() + std::chrono::duration<double>(o_.linger < 0 ? 1e9 : o_.linger);
+  while (!stop_.load() && Clock::now() < until) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+}
+
+}  // namespace esfleet::leader

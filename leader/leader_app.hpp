@@ -1,0 +1,70 @@
+#pragma once
+// esfleet-leader as one object: the constructor sets the run up step by step (resumed
+// checkpoint -> the log's scans -> DDS participant -> map publisher -> scan topic ->
+// checkpoints) and fails naming the step; run() maps every scan, publishes the changed tiles
+// every publish period, checkpoints, writes the results and serves the map until it is told to
+// stop; the destructor tears down in reverse (the scan reader and the writers before the DDS
+// participant).
+
+#include <atomic>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "app/scan_source.hpp"
+#include "checkpoint.hpp"
+#include "esfleet/core/slam.hpp"
+#include "esfleet/dds/node.hpp"
+#include "leader_options.hpp"
+#include "map_publisher.hpp"
+#include "slam_run.hpp"
+
+namespace esfleet::leader {
+
+class LeaderApp {
+ public:
+  /// `stop` (set by SIGINT/SIGTERM) ends the mapping and the serving early. Throws
+  /// app::UsageError naming the step and the cause: a checkpoint that cannot be resumed, a log
+  /// that cannot be read, a DDS participant or endpoint that cannot be created, a checkpoint
+  /// directory that cannot be written.
+  LeaderApp(LeaderOptions options, const std::atomic<bool>& stop);
+  ~LeaderApp();
+  LeaderApp(const LeaderApp&) = delete;
+  LeaderApp& operator=(const LeaderApp&) = delete;
+
+  /// Maps, publishes, writes the results and serves the map. Returns the exit code: 0 done,
+  /// 1 the results could not be written or no scan came, 130 interrupted.
+  int run();
+
+ private:
+  void resume_checkpoint();
+  void read_log();
+  void open_dds();
+  void open_checkpoints();
+  /// After each scan: checkpoint, publish when due, progress line.
+  void on_scan(const LaserScan& scan, const SlamStep& step, std::size_t done);
+  void publish(bool complete, float fitness);
+  /// What stats.json holds besides the SLAM's own figures.
+  nlohmann::json extra_stats(const SlamRunStats& stats);
+  /// After a complete map: serves it for --linger seconds or until stopped.
+  void serve(const SlamRunStats& stats);
+
+  LeaderOptions o_;
+  const std::atomic<bool>& stop_;
+  std::string params_json_;  ///< the parameters as JSON text (checkpoints, the map summary)
+  Slam slam_;
+  std::optional<Resumed> resumed_;
+  std::unique_ptr<dds::Node> node_;
+  std::unique_ptr<MapPublisher> publisher_;
+  std::unique_ptr<app::ScanSource> source_;
+  app::TopicScanSource* topic_ = nullptr;  ///< source_ when it is the scan topic
+  std::optional<CheckpointSchedule> checkpoints_;
+  std::size_t progress_every_ = 0;
+  std::optional<double> first_stamp_;
+  double last_stamp_ = 0.0;
+  double last_publish_ = -1e300;
+};
+
+}  // namespace esfleet::leader

@@ -1,0 +1,105 @@
+#include "leader_options.hpp"
+
+#include <stdexcept>
+
+#include "app/dds_flags.hpp"
+#include "app/slam_params.hpp"
+
+namespace esfleet::leader {
+
+void LeaderOptions::validate() const {
+  slam.validate();
+  if (!(rate >= 0.0)) throw std::invalid_argument("--rate must be >= 0");
+  if (!(publish_period > 0.0)) throw std::invalid_argument("--publish-period must be > 0");
+  if (!(full_period > 0.0)) throw std::invalid_argument("--full-period must be > 0");
+  if (log.empty() == scan_robot.empty()) {
+    throw std::invalid_argument("give exactly one of --log FILE and --scan-topic ROBOT_ID");
+  }
+  if (!scan_robot.empty() && offline) {
+    throw std::invalid_argument("--offline maps a --log only (--scan-topic needs DDS)");
+  }
+  if (!scan_robot.empty() && rate > 0.0) {
+    throw std::invalid_argument("--rate paces a --log; scans from --scan-topic come as sent");
+  }
+  if (!(idle_exit >= 0.0)) throw std::invalid_argument("--idle-exit must be >= 0");
+  if (idle_exit > 0.0 && scan_robot.empty()) {
+    throw std::invalid_argument("--idle-exit needs --scan-topic");
+  }
+}
+
+std::string LeaderOptions::input_name() const {
+  return log.empty() ? "scan-topic " + scan_robot : "log " + log;
+}
+
+void add_leader_flags(CLI::App& cli, LeaderOptions& o, app::ParamTable& params) {
+  cli.add_option("--log", o.log, "CARMEN log (.log/.clf, plain or .gz)");
+  cli.add_option("--scan-topic", o.scan_robot,
+                 "map the scans robot ID publishes on esfleet/robots/scan (e.g. from "
+                 "esfleet-replay) instead of a log");
+  cli.add_option("--idle-exit", o.idle_exit,
+                 "--scan-topic: end the map once no scan came for S seconds after the first "
+                 "(0 = only on Ctrl-C)")
+      ->capture_default_str();
+  cli.add_option("--out", o.out_dir, "output directory")->capture_default_str();
+  cli.add_flag("--offline", o.offline, "run the log through the SLAM without DDS");
+  cli.add_option("--max-scans", o.max_scans, "stop after N scans (0 = all)")->capture_default_str();
+  cli.add_option("--checkpoint-every", o.checkpoint_every,
+                 "write OUT/checkpoint every N scans and at exit, for --resume (0 = never); a "
+                 "leader killed loses at most the N - 1 scans since the last one")
+      ->capture_default_str();
+  cli.add_option("--resume", o.resume_dir,
+                 "continue the map checkpointed in DIR/checkpoint (same map id, epoch and "
+                 "parameters; --log continues after the last checkpointed scan)");
+  cli.add_flag("--paper", o.paper,
+               "start from the paper's exact configuration (previous-pose prediction, no "
+               "extensions) before applying --config and the flags below");
+  auto* dds = cli.add_option_group("DDS", "Map sharing (without --offline)");
+  app::add_dds_flags(*dds, o.domain, o.profile, o.secure);
+  dds->add_option("--map-id", o.map_id,
+                  "name of the shared map (default: map; with --resume: the checkpoint's)");
+  dds->add_option("--epoch", o.epoch,
+                  "map epoch (default: the start time in seconds, a new map; with --resume: "
+                  "the checkpoint's)");
+  dds->add_option("--robot-id", o.robot_id, "id on the pose topic")->capture_default_str();
+  dds->add_option("--rate", o.rate,
+                  "--log replay speed: 0 = as fast as possible, 1 = recorded speed, 2 = twice")
+      ->capture_default_str();
+  dds->add_option("--publish-period", o.publish_period,
+                  "seconds of scan time between tile publishes (at --rate 1: wall seconds)")
+      ->capture_default_str();
+  dds->add_option("--linger", o.linger,
+                  "after the input: keep serving the map this many seconds (< 0: until Ctrl-C)")
+      ->capture_default_str();
+  dds->add_option_function<std::string>(
+         "--encoding",
+         [&o](const std::string& v) {
+           o.encoding = v == "raw"      ? TileEncoding::kRaw
+                        : v == "varint" ? TileEncoding::kVarintZlib
+                                        : TileEncoding::kMedZlib;
+         },
+         "tile payload encoding: med = predicted residuals + zlib (smallest), varint = "
+         "varints + zlib, raw = 8 bytes per cell")
+      ->check(CLI::IsMember({"med", "varint", "raw"}).description(""))
+      ->type_name("med|varint|raw")
+      ->default_str("med");
+  dds->add_option("--full-every", o.full_every,
+                  "send a changed tile whole every N publishes of it, as a delta against the "
+                  "previous publish in between (1 = always whole)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  dds->add_option("--full-period", o.full_period,
+                  "send a changed tile whole when its whole copy is S seconds of scan time old")
+      ->capture_default_str();
+  app::add_slam_params(params, &o.slam, &o.reader);
+  params.bind(cli, "SLAM parameters");
+}
+
+void finish_leader_options(LeaderOptions& o, app::ParamTable& params) {
+  if (o.paper) o.slam = SlamConfig::paper();
+  params.apply();
+  o.parameters = params.values();
+  o.parameter_changes = params.describe_changes();
+  o.validate();
+}
+
+}  // namespace esfleet::leader

@@ -1,0 +1,72 @@
+#pragma once
+// esfleet-leader's options: what to map (a log or a robot's scan topic), where the results go,
+// how the map is shared over DDS, checkpoints, and the SLAM parameters.
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "app/param_table.hpp"
+#include "esfleet/core/carmen_reader.hpp"
+#include "esfleet/core/slam.hpp"
+#include "esfleet/core/tile_codec.hpp"
+
+namespace esfleet::leader {
+
+struct LeaderOptions {
+  // --- input: exactly one of log and scan_robot ---
+  std::string log;            ///< CARMEN log (.log/.clf, plain or .gz)
+  std::string scan_robot;     ///< map the scans this robot publishes on the scan topic
+  double idle_exit = 0.0;     ///< scan topic: end once no scan came for this long (s); 0 = never
+  std::size_t max_scans = 0;  ///< stop after this many scans; 0 = all
+  double rate = 0.0;          ///< log replay speed: 0 = as fast as possible, 1 = recorded speed
+
+  // --- outputs and checkpoints ---
+  std::string out_dir = "out";
+  std::size_t checkpoint_every = 50;  ///< scans between checkpoints; 0 = none
+  std::string resume_dir;             ///< continue the map checkpointed here
+
+  // --- map sharing (off with offline) ---
+  bool offline = false;  ///< run a log through the SLAM without DDS
+  int domain = 0;
+  std::string profile;                 ///< Fast DDS XML profile; empty = Fast DDS defaults
+  std::string secure;                  ///< DDS Security directory (docs/security.md); empty = off
+  std::optional<std::string> map_id;   ///< name of the shared map; default "map" (or resumed)
+  std::optional<std::uint32_t> epoch;  ///< map epoch; default the start time (or resumed)
+  std::string robot_id = "leader";     ///< id on the pose topic
+  double publish_period = 1.0;         ///< seconds of scan time between publishes
+  double linger = -1.0;  ///< seconds to keep serving after the input; < 0 = until stopped
+  TileEncoding encoding = TileEncoding::kMedZlib;
+  std::uint64_t full_every = 60;  ///< a changed tile goes whole every this many publishes of it
+  double full_period = 60.0;      ///< ... and when its whole copy is this old (s of scan time)
+
+  // --- SLAM ---
+  bool paper = false;  ///< start from the paper's exact configuration
+  SlamConfig slam;
+  CarmenReaderOptions reader;
+  /// Every parameter's name and value as the run uses it (stats.json, checkpoints, the map
+  /// summary); filled by finish_leader_options.
+  std::vector<std::pair<std::string, std::string>> parameters;
+  /// The parameters not at their defaults, for the log ("all defaults" or "2 changed: ...").
+  std::string parameter_changes;
+
+  /// Throws std::invalid_argument naming the flag.
+  void validate() const;
+  /// "log PATH" or "scan-topic ROBOT_ID": what the map was made from (checkpoints).
+  std::string input_name() const;
+};
+
+/// Registers every flag on `cli`, bound to `o` and, for the SLAM parameters, to `params` (both
+/// must outlive the parse).
+void add_leader_flags(CLI::App& cli, LeaderOptions& o, app::ParamTable& params);
+
+/// After parsing: applies --paper, then the parameter file and flags (`params`), records the
+/// parameters and validates. Throws std::invalid_argument (or std::runtime_error from the
+/// parameter file) naming the flag, file or line.
+void finish_leader_options(LeaderOptions& o, app::ParamTable& params);
+
+}  // namespace esfleet::leader
