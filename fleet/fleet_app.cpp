@@ -249,8 +249,12 @@ bool FleetApp::check_children(double dt_s) {
 }
 
 void FleetApp::draw(double dt_s) {
-  const StatusHeader header{o_.robots,   o_.domain,          now_s(),
-                            o_.duration, followers_start_s_, map_progress()};
+  const StatusHeader header{.robots = o_.robots,
+                            .domain = o_.domain,
+                            .now_s = now_s(),
+                            .duration_s = o_.duration,
+                            .followers_start_s = followers_start_s_,
+                            .map = map_progress()};
   const std::string table = table_.render(header, leader_, sim_, followers_, monitor_, dt_s);
   std::cout << (o_.live ? "\x1b[H\x1b[2J" : "") << table << std::flush;
 }

@@ -201,7 +201,7 @@ int SimApp::run() {
   }
   log_report(interrupted);
   publisher_.reset();  // deletes the DDS participant
-  // A failed log write has exited 2 since esfleet-sim began; kept (see the report).
+  // A log that could not be written exits 2, as esfleet-sim always has (callers may test it).
   if (!ok) return app::kExitUsage;
   return interrupted ? app::kExitInterrupted : app::kExitOk;
 }
