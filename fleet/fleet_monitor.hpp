@@ -34,8 +34,11 @@ struct Tolerance {
   double theta_rad = 0.0872664626;  // 5 degrees
 };
 
-/// Status values of msg::RobotPose (kept equal to idl/esfleet.idl by a static_assert in the
-/// launcher, which sees both).
+/// Status values of msg::RobotPose (kept equal to idl/esfleet.idl by static_asserts in
+/// fleet_app.cpp, which sees both), so that the launcher's pure parts need no DDS headers.
+inline constexpr std::uint8_t kStatusMapping = 0;
+inline constexpr std::uint8_t kStatusWaitingForMap = 1;
+inline constexpr std::uint8_t kStatusLocalising = 2;
 inline constexpr std::uint8_t kStatusTracking = 3;
 inline constexpr std::uint8_t kStatusLost = 4;
 /// No pose received yet.

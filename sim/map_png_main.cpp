@@ -10,33 +10,43 @@
 #include <string>
 #include <vector>
 
-int main(int argc, char** argv) {
-  if (argc != 3) {
-    std::fprintf(stderr, "usage: esfleet-map-png IN.pgm OUT.png\n");
-    return 2;
-  }
-  const std::string in = argv[1], out = argv[2];
+#include "app/program.hpp"
+
+namespace {
+
+using esfleet::app::UsageError;
+
+constexpr const char* kDescription =
+    "esfleet-map-png: converts a map image (e.g. the leader's map.pgm) to a lossless 8-bit grey "
+    "PNG, pixel for pixel, and checks that the PNG reads back identical (data/worlds/README.md).";
+
+/// Writes `in` as the PNG `out` and reads it back. Every failure, the output's included, is a
+/// UsageError naming the file (exit 2, as this program has always done).
+void convert(const std::string& in, const std::string& out) {
   const cv::Mat image = cv::imread(in, cv::IMREAD_UNCHANGED);
-  if (image.empty()) {
-    std::fprintf(stderr, "%s: cannot read the image\n", in.c_str());
-    return 2;
-  }
-  if (image.type() != CV_8UC1) {
-    std::fprintf(stderr, "%s: not an 8-bit grey image\n", in.c_str());
-    return 2;
-  }
+  if (image.empty()) throw UsageError(in + ": cannot read the image");
+  if (image.type() != CV_8UC1) throw UsageError(in + ": not an 8-bit grey image");
   const std::vector<int> params = {cv::IMWRITE_PNG_COMPRESSION, 9};
-  if (!cv::imwrite(out, image, params)) {
-    std::fprintf(stderr, "%s: cannot write\n", out.c_str());
-    return 2;
-  }
+  if (!cv::imwrite(out, image, params)) throw UsageError(out + ": cannot write");
   const cv::Mat back = cv::imread(out, cv::IMREAD_UNCHANGED);
   if (back.empty() || back.type() != CV_8UC1 || back.size() != image.size() ||
       cv::countNonZero(back != image) != 0) {
-    std::fprintf(stderr, "%s: does not read back identical to %s\n", out.c_str(), in.c_str());
-    return 2;
+    throw UsageError(out + ": does not read back identical to " + in);
   }
   std::printf("%s: %dx%d pixels, identical to %s\n", out.c_str(), image.cols, image.rows,
               in.c_str());
-  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  esfleet::app::Program program("esfleet-map-png", "map-png", kDescription);
+  std::string in, out;
+  program.cli().add_option("IN", in, "map image to convert (e.g. map.pgm)")->required();
+  program.cli().add_option("OUT", out, "8-bit grey PNG to write")->required();
+  if (auto code = program.parse(argc, argv)) return *code;
+  return program.run([&] {
+    convert(in, out);
+    return esfleet::app::kExitOk;
+  });
 }

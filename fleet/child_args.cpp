@@ -1,0 +1,52 @@
+#include "child_args.hpp"
+
+#include <sstream>
+
+namespace esfleet::fleet {
+
+namespace {
+std::vector<std::string> with(std::vector<std::string> a, const std::vector<std::string>& b) {
+  a.insert(a.end(), b.begin(), b.end());
+  return a;
+}
+}  // namespace
+
+std::vector<std::string> split_args(const std::string& s) {
+  std::istringstream in(s);
+  std::vector<std::string> out;
+  std::string a;
+  while (in >> a) out.push_back(a);
+  return out;
+}
+
+std::vector<std::string> dds_args(const FleetOptions& o, const std::string& id) {
+  std::vector<std::string> flags = {"--domain", std::to_string(o.domain), "--profile", o.profile};
+  if (!o.secure.empty()) flags.insert(flags.end(), {"--secure", o.secure_dir_for(id)});
+  return flags;
+}
+
+std::vector<std::string> leader_argv(const FleetOptions& o, const std::string& bin_dir) {
+  return with(with({bin_dir + "/esfleet-leader", "--log", o.log, "--rate",
+                    std::to_string(o.leader_rate), "--linger", "-1", "--out", o.out + "/leader"},
+                   dds_args(o, "leader")),
+              split_args(o.leader_args));
+}
+
+std::vector<std::string> follower_argv(const FleetOptions& o, const std::string& bin_dir, int k) {
+  const std::string name = robot_name(k);
+  return with(with({bin_dir + "/esfleet-follower", "--scan-topic", name, "--robot-id", name,
+                    "--seed", std::to_string(o.seed + static_cast<unsigned>(k)), "--save-map",
+                    o.out + "/" + name, "--trajectory", o.out + "/" + name + "/trajectory.txt"},
+                   dds_args(o, name)),
+              split_args(o.follower_args));
+}
+
+std::vector<std::string> sim_argv(const FleetOptions& o, const std::string& bin_dir) {
+  return with(
+      with({bin_dir + "/esfleet-sim", "--world", o.world, "--robots", std::to_string(o.robots),
+            "--rate", std::to_string(o.rate), "--seed", std::to_string(o.seed)},
+           dds_args(o, "sim")),
+      split_args(o.sim_args));
+}
+
+}  // namespace esfleet::fleet

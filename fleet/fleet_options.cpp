@@ -1,0 +1,114 @@
+#include "fleet_options.hpp"
+
+#include <filesystem>
+#include <utility>
+
+#include "app/program.hpp"
+
+namespace esfleet::fleet {
+
+namespace fs = std::filesystem;
+using app::UsageError;
+
+std::string robot_name(int k) { return "robot-" + std::to_string(k); }
+
+std::string FleetOptions::summary_path() const {
+  return summary.empty() ? out + "/summary.json" : summary;
+}
+
+std::string FleetOptions::bin_directory() const {
+  return bin_dir.empty() ? fs::canonical("/proc/self/exe").parent_path().string() : bin_dir;
+}
+
+std::string FleetOptions::secure_dir_for(const std::string& id) const {
+  return secure.empty() ? std::string() : (fs::path(secure) / id).string();
+}
+
+std::vector<std::string> FleetOptions::identities() const {
+  std::vector<std::string> ids = {"leader", "sim", "monitor"};
+  for (int k = 1; k <= robots; ++k) ids.push_back(robot_name(k));
+  return ids;
+}
+
+void FleetOptions::validate() const {
+  // The ranges the flags check already; here too for options built in code.
+  if (robots < 1 || robots > 64) throw UsageError("--robots must be in [1, 64]");
+  if (!(duration >= 0.0)) throw UsageError("--duration must be >= 0");
+  if (!(window >= 0.0)) throw UsageError("--window must be >= 0");
+  if (domain < 0 || domain > 232) throw UsageError("--domain must be in [0, 232]");
+  if (!(rate > 0.0)) throw UsageError("--rate must be > 0");
+  if (!(leader_rate >= 0.0)) throw UsageError("--leader-rate must be >= 0");
+  for (const auto& [flag, path] :
+       {std::pair{"--world", world}, std::pair{"--log", log}, std::pair{"--profile", profile}}) {
+    if (!fs::is_regular_file(path))
+      throw UsageError(std::string(flag) + " " + path + ": no such file");
+  }
+  // --secure: DIR/<id> for every identity the fleet uses (the Node checks the files in each).
+  if (!secure.empty()) {
+    for (const auto& id : identities()) {
+      if (!fs::is_directory(secure_dir_for(id))) {
+        throw UsageError("--secure " + secure + ": no directory " + secure_dir_for(id) +
+                         " (make-fleet-certs.sh " + secure + " ... " + id + ")");
+      }
+    }
+  }
+  const std::string bin = bin_directory();
+  for (const char* prog : {"esfleet-leader", "esfleet-follower", "esfleet-sim"}) {
+    if (access((bin + "/" + prog).c_str(), X_OK) != 0) {
+      throw UsageError("--bin-dir " + bin + ": no executable " + prog);
+    }
+  }
+}
+
+void add_fleet_flags(CLI::App& cli, FleetOptions& o) {
+  cli.add_option("--robots", o.robots, "simulated robots, one follower each")
+      ->check(CLI::Range(1, 64))
+      ->capture_default_str();
+  cli.add_option("--duration", o.duration, "stop after S seconds (0 = on Ctrl-C only)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  cli.add_option("--window", o.window,
+                 "stop once every follower has tracked for S seconds (the real-time window; 0 = "
+                 "no such stop)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  cli.add_option("--summary", o.summary, "write the summary JSON here (default OUT/summary.json)");
+  cli.add_option("--out", o.out, "directory for the programs' logs, maps and stats")
+      ->capture_default_str();
+  cli.add_option("--domain", o.domain, "DDS domain id of the fleet (0-232)")
+      ->check(CLI::Range(0, 232))
+      ->capture_default_str();
+  cli.add_option("--profile", o.profile, "Fast DDS XML profile for every program")
+      ->capture_default_str();
+  cli.add_option("--secure", o.secure,
+                 "DDS Security for every program: DIR/<id> per identity (leader, robot-1..N, "
+                 "sim, and monitor for this launcher), as deploy/security/make-fleet-certs.sh "
+                 "makes them (docs/security.md)");
+  cli.add_option("--world", o.world, "world map for the simulator (ROS map YAML)")
+      ->capture_default_str();
+  cli.add_option("--log", o.log, "CARMEN log the leader maps (its map's frame is the world's)")
+      ->capture_default_str();
+  cli.add_option("--rate", o.rate, "laser scans per second per robot")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  cli.add_option("--leader-rate", o.leader_rate,
+                 "leader's replay speed of --log (0 = as fast as it maps, 1 = recorded speed)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  cli.add_option("--seed", o.seed, "seed of the simulator (robot k's follower gets seed + k)")
+      ->capture_default_str();
+  cli.add_option("--leader-args", o.leader_args, "extra esfleet-leader flags (one string)")
+      ->capture_default_str();
+  cli.add_option("--follower-args", o.follower_args, "extra esfleet-follower flags (one string)")
+      ->capture_default_str();
+  cli.add_option("--sim-args", o.sim_args, "extra esfleet-sim flags (one string)");
+  cli.add_flag("--wait-map", o.wait_map,
+               "start the simulator and followers only once the leader's map is complete (the "
+               "fleet joins a mapped building; scale measurements). Default: all at once, the "
+               "followers localise while the map grows");
+  cli.add_option("--bin-dir", o.bin_dir,
+                 "where the esfleet programs are (default: next to this one)");
+  cli.add_option("--live", o.live, "redraw a status table every second (default: on a terminal)");
+}
+
+}  // namespace esfleet::fleet

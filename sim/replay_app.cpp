@@ -1,0 +1,172 @@
+#include "replay_app.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <chrono>
+#include <stdexcept>
+#include <string>
+#include <thread>
+
+#include "app/program.hpp"
+#include "esfleet/core/carmen_reader.hpp"
+#include "esfleet/dds/to_msg.hpp"
+
+namespace esfleet::sim {
+
+using app::UsageError;
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+/// How often blocked waits look at the stop flag.
+constexpr std::chrono::milliseconds kPoll{100};
+/// At the end, how long to wait for the readers to acknowledge the last scans.
+constexpr std::chrono::seconds kFinalAckTimeout{10};
+
+/// The scans of the log (the first max_scans if > 0); fewer if `stop` is set while reading.
+/// Throws LogError naming file and line.
+std::vector<LaserScan> read_log(const std::string& path, std::size_t max_scans,
+                                const std::atomic<bool>& stop) {
+  std::vector<LaserScan> scans;
+  CarmenReader reader(path);
+  while (auto scan = reader.next_scan()) {
+    scans.push_back(std::move(*scan));
+    if (max_scans > 0 && scans.size() >= max_scans) break;
+    if (stop.load()) break;
+  }
+  if (scans.empty()) {
+    throw LogError(path, 0, "no laser scans (FLASER/ROBOTLASER1) in file");
+  }
+  return scans;
+}
+
+/// Waits until every matched reader acknowledged every scan written, checking the stop flag;
+/// warns once if that takes long. Returns the seconds waited.
+double wait_for_acks(const dds::ScanWriter& writer, std::uint32_t seq,
+                     const std::atomic<bool>& stop) {
+  const auto start = Clock::now();
+  bool warned = false;
+  while (!writer.wait_for_acknowledgments(kPoll) && !stop.load()) {
+    if (!warned && Clock::now() - start > std::chrono::seconds(5)) {
+      spdlog::warn("scans up to seq {} not acknowledged for 5 s by {} reader(s); waiting", seq,
+                   writer.matched_readers());
+      warned = true;
+    }
+  }
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+}  // namespace
+
+ReplayApp::ReplayApp(ReplayOptions options, const std::atomic<bool>& stop)
+    : o_(std::move(options)), stop_(stop) {
+  try {
+    scans_ = read_log(o_.log, o_.max_scans, stop_);
+  } catch (const std::exception& e) {
+    throw UsageError(e.what());  // LogError: "<file>:<line>: ..."
+  }
+  if (o_.first_scan >= scans_.size()) {
+    throw UsageError("--first-scan " + std::to_string(o_.first_scan) + ": " + o_.log +
+                     " has only " + std::to_string(scans_.size()) + " scans" +
+                     (o_.max_scans > 0 ? " (with --max-scans)" : ""));
+  }
+  scans_.erase(scans_.begin(), scans_.begin() + static_cast<std::ptrdiff_t>(o_.first_scan));
+  spdlog::info("{}: {} scans over {:.1f} s of log; robot '{}', rate {}{}, odometry {}", o_.log,
+               scans_.size(), scans_.back().stamp - scans_.front().stamp, o_.robot_id, o_.rate,
+               o_.rate == 0.0 ? " (as fast as acknowledged)" : "", o_.odometry ? "on" : "off");
+
+  try {
+    node_ = std::make_unique<dds::Node>(
+        dds::NodeOptions{o_.domain, o_.profile, "esfleet-replay", o_.secure});
+  } catch (const std::exception& e) {
+    throw UsageError(fmt::format("DDS participant on domain {}: {}", o_.domain, e.what()));
+  }
+  try {
+    // In the robot's partition: readers of this robot get only its scans (docs/security.md).
+    writer_ = std::make_unique<dds::ScanWriter>(*node_, o_.robot_id);
+  } catch (const std::exception& e) {
+    throw UsageError(fmt::format("DDS scan writer of {}: {}", o_.robot_id, e.what()));
+  }
+}
+
+ReplayApp::~ReplayApp() {
+  writer_.reset();  // before the node (node.hpp)
+  node_.reset();
+}
+
+int ReplayApp::run() {
+  wait_for_readers();
+  const auto start = Clock::now();
+  const double ack_wait_s = send_scans(start);
+  const double send_s = std::chrono::duration<double>(Clock::now() - start).count();
+  const bool interrupted = stop_.load();
+
+  // Scans still in flight die with the process unless the readers have them; bounded wait.
+  const auto final_timeout =
+      interrupted ? std::chrono::milliseconds(1000) : std::chrono::milliseconds(kFinalAckTimeout);
+  const bool acked = writer_->wait_for_acknowledgments(final_timeout);
+  if (!acked) {
+    spdlog::warn("{} reader(s) did not acknowledge every scan within {} s",
+                 writer_->matched_readers(), final_timeout.count() / 1000);
+  }
+  const std::uint64_t sent = writer_->samples_written();
+  spdlog::info(
+      "{}sent {} scans{} in {:.2f} s: {:.0f} scans/s, {:.1f} kB; {:.2f} s waiting for "
+      "acknowledgments; {} write failures; {} reader(s), {}",
+      interrupted ? "interrupted: " : "", sent,
+      seq_ > 0 ? fmt::format(" (seq 0..{})", seq_ - 1) : std::string(), send_s,
+      send_s > 0 ? static_cast<double>(sent) / send_s : 0.0,
+      static_cast<double>(writer_->bytes_written()) / 1e3, ack_wait_s, writer_->write_failures(),
+      writer_->matched_readers(), acked ? "all acknowledged" : "NOT all acknowledged");
+  writer_.reset();  // before the node (node.hpp)
+  return interrupted ? app::kExitInterrupted : app::kExitOk;
+}
+
+void ReplayApp::wait_for_readers() {
+  if (o_.wait_subscribers <= 0) return;
+  spdlog::info("waiting up to {} s for {} reader(s) of {} on domain {}", o_.wait_timeout,
+               o_.wait_subscribers, writer_->topic_name(), o_.domain);
+  const auto deadline = Clock::now() + std::chrono::duration<double>(o_.wait_timeout);
+  while (!stop_.load() && Clock::now() < deadline &&
+         !writer_->wait_for_matched(o_.wait_subscribers, kPoll)) {
+  }
+  if (stop_.load()) {
+    // Stopped before the first scan: nothing was sent.
+  } else if (writer_->matched_readers() < o_.wait_subscribers) {
+    spdlog::warn("only {} of {} reader(s) matched after {} s: starting anyway",
+                 writer_->matched_readers(), o_.wait_subscribers, o_.wait_timeout);
+  } else {
+    spdlog::info("{} reader(s) matched: starting", writer_->matched_readers());
+  }
+}
+
+double ReplayApp::send_scans(std::chrono::steady_clock::time_point start) {
+  const std::size_t every = std::max<std::size_t>(1, scans_.size() / 10);
+  double ack_wait_s = 0.0;
+  for (std::size_t i = 0; i < scans_.size() && !stop_.load(); ++i) {
+    if (o_.rate > 0.0) {
+      const auto due =
+          start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(
+                      (scans_[i].stamp - scans_.front().stamp) / o_.rate));
+      while (Clock::now() < due && !stop_.load()) {
+        std::this_thread::sleep_until(std::min(due, Clock::now() + kPoll));
+      }
+      if (stop_.load()) break;
+    }
+    if (!o_.odometry) scans_[i].odometry.reset();
+    if (!writer_->write(dds::scan_to_msg(o_.robot_id, seq_, scans_[i]))) {
+      spdlog::warn("DDS refused scan seq {}", seq_);
+    }
+    ++seq_;
+    if (seq_ % kAckWindow == 0) ack_wait_s += wait_for_acks(*writer_, seq_ - 1, stop_);
+    if (seq_ % every == 0 || seq_ == scans_.size()) {
+      spdlog::info("scan {}/{} (log time {:.1f} s), {} reader(s)", seq_, scans_.size(),
+                   scans_[i].stamp - scans_.front().stamp, writer_->matched_readers());
+    }
+  }
+  return ack_wait_s;
+}
+
+}  // namespace esfleet::sim

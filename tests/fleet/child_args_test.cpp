@@ -1,0 +1,71 @@
+// The command lines esfleet-fleet gives the leader, the followers and the simulator.
+#include "child_args.hpp"
+
+#include <gtest/gtest.h>
+
+#include <string>
+#include <vector>
+
+namespace esfleet::fleet {
+namespace {
+
+using Args = std::vector<std::string>;
+
+FleetOptions options() {
+  FleetOptions o;
+  o.out = "OUT";
+  o.domain = 9;
+  o.profile = "p.xml";
+  o.log = "a.clf";
+  o.world = "w.yaml";
+  o.robots = 3;
+  o.seed = 7;
+  return o;
+}
+
+TEST(ChildArgs, SplitArgsAtAnyWhiteSpace) {
+  EXPECT_EQ(split_args("  --odometry on\t--mu  50 "), (Args{"--odometry", "on", "--mu", "50"}));
+  EXPECT_EQ(split_args(""), Args{});
+}
+
+TEST(ChildArgs, LeaderMapsTheLogAndLingers) {
+  const FleetOptions o = options();
+  EXPECT_EQ(
+      leader_argv(o, "BIN"),
+      (Args{"BIN/esfleet-leader", "--log", "a.clf", "--rate", "0.000000", "--linger", "-1", "--out",
+            "OUT/leader", "--domain", "9", "--profile", "p.xml", "--odometry", "on"}));
+}
+
+TEST(ChildArgs, FollowerKListensToRobotKWithSeedPlusK) {
+  FleetOptions o = options();
+  o.follower_args = "--latest-only false";
+  EXPECT_EQ(
+      follower_argv(o, "BIN", 2),
+      (Args{"BIN/esfleet-follower", "--scan-topic", "robot-2", "--robot-id", "robot-2", "--seed",
+            "9", "--save-map", "OUT/robot-2", "--trajectory", "OUT/robot-2/trajectory.txt",
+            "--domain", "9", "--profile", "p.xml", "--latest-only", "false"}));
+}
+
+TEST(ChildArgs, SimulatorDrivesEveryRobot) {
+  FleetOptions o = options();
+  o.rate = 2.5;
+  o.sim_args = "--speed 0.3";
+  EXPECT_EQ(sim_argv(o, "BIN"),
+            (Args{"BIN/esfleet-sim", "--world", "w.yaml", "--robots", "3", "--rate", "2.500000",
+                  "--seed", "7", "--domain", "9", "--profile", "p.xml", "--speed", "0.3"}));
+}
+
+TEST(ChildArgs, SecureGivesEachProgramItsOwnIdentity) {
+  FleetOptions o = options();
+  EXPECT_EQ(dds_args(o, "leader"), (Args{"--domain", "9", "--profile", "p.xml"}));
+  o.secure = "certs";
+  EXPECT_EQ(dds_args(o, "sim"),
+            (Args{"--domain", "9", "--profile", "p.xml", "--secure", "certs/sim"}));
+  const Args f = follower_argv(o, "BIN", 3);
+  const auto it = std::find(f.begin(), f.end(), "--secure");
+  ASSERT_NE(it, f.end());
+  EXPECT_EQ(*(it + 1), "certs/robot-3");
+}
+
+}  // namespace
+}  // namespace esfleet::fleet
