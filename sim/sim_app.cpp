@@ -12,8 +12,8 @@
 #include <thread>
 
 #include "app/program.hpp"
-#include "esfleet/dds/to_msg.hpp"
 #include "esfleet/dds/node.hpp"
+#include "esfleet/dds/to_msg.hpp"
 #include "esfleet/dds/writer.hpp"
 
 namespace esfleet::sim {
