@@ -116,9 +116,11 @@ int FleetApp::run() {
       "fleet of {} robots on domain {} ({}); logs and maps in {}{}", o_.robots, o_.domain,
       o_.profile, o_.out,
       o_.duration > 0 ? fmt::format("; stopping after {} s", o_.duration) : "; Ctrl-C stops");
+  std::cout << StatusTable::legend(Tolerance{}) << std::flush;
   watch();
   const FleetTimes times{now_s(), followers_start_s_, window_start_s_};
   for (ChildProcess* c : children()) sample(*c, 0.0);
+  if (!o_.live) draw(now_s() - followers_start_s_);  // not a terminal: the table once, at the end
   spdlog::info("stopping: simulator, followers (they save their maps), leader");
   stop_children();
   // Nothing more to hear: the summary works from what the monitor has.
@@ -216,7 +218,7 @@ void FleetApp::watch() {
       if (!check_children(dt)) break;
     }
     const double ddt = std::chrono::duration<double>(Clock::now() - last_draw).count();
-    if (ddt >= (o_.live ? 1.0 : 5.0)) {
+    if (o_.live && ddt >= 1.0) {
       last_draw = Clock::now();
       draw(ddt);
     }

@@ -2,6 +2,7 @@
 
 #include <spdlog/fmt/fmt.h>
 
+#include <cmath>
 #include <sstream>
 
 #include "app/summary.hpp"
@@ -28,6 +29,17 @@ const char* status_name(std::uint8_t s) {
     default:
       return "-";
   }
+}
+
+std::string StatusTable::legend(const Tolerance& wrong) {
+  return fmt::format(
+      "Robot columns: state = what the follower reports (waiting-map, localising, tracking, "
+      "lost); localised = time from the followers' start to its first declared pose; err m = "
+      "distance of its last pose from the simulator's truth; med m = median of that while "
+      "tracking; CPU % and MB = the follower process over the last second; poses/s = poses it "
+      "published per second. WRONG POSE DECLARED: a declared pose more than {:.1f} m or {:.0f} "
+      "deg from the truth.\n",
+      wrong.xy_m, wrong.theta_rad * 180.0 / M_PI);
 }
 
 std::string StatusTable::render(const StatusHeader& h, const ChildProcess& leader,

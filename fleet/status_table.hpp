@@ -38,6 +38,10 @@ struct StatusHeader {
 /// second since then.
 class StatusTable {
  public:
+  /// What the robot columns mean, printed once before the first table; `wrong` is the
+  /// tolerance beyond which a declared pose counts as wrong.
+  static std::string legend(const Tolerance& wrong);
+
   /// `followers[i]` is the robot monitor.robots().at(followers[i].name) (registered there);
   /// `dt_s` the seconds since the previous render (poses/s is 0 when dt_s <= 0).
   std::string render(const StatusHeader& header, const ChildProcess& leader,

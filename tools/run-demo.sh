@@ -12,7 +12,8 @@
 #     summary in out/csail/fleet/summary.json.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-tools/build.sh
+# Only the programs the demo runs (the test suite is built by tools/run-tests.sh).
+tools/build.sh esfleet-leader esfleet-eval esfleet-follower esfleet-fleet esfleet-sim
 out=${1:-out/csail}
 log=data/mit-csail/mit-csail.clf.gz
 build/bin/esfleet-leader --offline --log "$log" --odometry on --out "$out"
@@ -45,3 +46,20 @@ echo
 echo "== a simulated fleet: leader, simulator, 4 followers (domain ${ESFLEET_DEMO_FLEET_DOMAIN:-76}, 90 s) =="
 build/bin/esfleet-fleet --robots 4 --duration 90 --domain "${ESFLEET_DEMO_FLEET_DOMAIN:-76}" \
   --out "$out/fleet"
+
+robots=$(ls -d "$out"/fleet/robot-*/ 2>/dev/null | wc -l)
+cat <<RECAP
+
+== what the demo produced ==
+$out/                      the leader's offline map of the whole log (with odometry)
+  map.png                    the map with the trajectory (start green, end blue)
+  map.pgm, map.yaml          the map for ROS map_server / nav2 / RViz
+  trajectory.txt, stats.json the poses (t x y theta) and the run's figures
+$out/shared/leader/        the map a leader shared over DDS (first 1000 scans)
+$out/shared/follower-1/    what follower-1 received (map.digest equals the leader's) and its
+                             own track (map.png, trajectory.txt)
+$out/fleet/summary.json    the simulated fleet: per robot time to localise, error, CPU
+$out/fleet/robot-1 .. robot-$robots/  each robot's copy of the map with its track (map.png)
+$out/fleet/*.log           every program's log
+RECAP
+

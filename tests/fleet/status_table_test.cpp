@@ -91,6 +91,14 @@ TEST(StatusTable, PosesPerSecondCountSinceTheLastRender) {
   EXPECT_TRUE(line_of(t.render(h, {}, {}, followers(), m, 0.0), "robot-1").ends_with(" 0.0"));
 }
 
+TEST(StatusTable, TheLegendExplainsEveryRobotColumnAndTheTolerance) {
+  const std::string legend = StatusTable::legend(Tolerance{});
+  for (const char* column : {"state", "localised", "err m", "med m", "CPU %", "MB", "poses/s",
+                             "WRONG POSE DECLARED", "0.3 m or 5 deg"}) {
+    EXPECT_NE(legend.find(column), std::string::npos) << column;
+  }
+}
+
 TEST(StatusTable, AWrongDeclarationIsFlagged) {
   StatusTable t;
   FleetMonitor m;
