@@ -13,26 +13,10 @@
 #include <random>
 
 #include "esfleet/core/tile_codec.hpp"
+#include "test_maps.hpp"
 
 namespace esfleet::mapshare {
 namespace {
-
-/// A leader map with random counters over a few tiles (including negative keys).
-GridMap random_map(unsigned seed, int updates = 3000) {
-  GridMap map;
-  std::mt19937 gen(seed);
-  std::uniform_int_distribution<int> cell(-150, 150);
-  for (int i = 0; i < updates; ++i) {
-    const CellIndex c{cell(gen), cell(gen)};
-    if (gen() % 3 == 0) {
-      map.add_hit(c);
-    } else {
-      map.add_err(c);
-    }
-  }
-  map.commit_update();
-  return map;
-}
 
 void send_all(const GridMap& leader, MapReplica& replica, const MapIdentity& id,
               TileEncoding enc = TileEncoding::kVarintZlib) {
@@ -46,7 +30,7 @@ void send_all(const GridMap& leader, MapReplica& replica, const MapIdentity& id,
 TEST(MapReplica, RebuildsTheLeadersCountersExactly) {
   for (unsigned seed : {1u, 2u, 3u}) {
     SCOPED_TRACE("seed " + std::to_string(seed));
-    const GridMap leader = random_map(seed);
+    const GridMap leader = test::random_map(seed);
     for (TileEncoding enc : {TileEncoding::kRaw, TileEncoding::kVarintZlib}) {
       MapReplica replica;
       send_all(leader, replica, {}, enc);
@@ -58,7 +42,7 @@ TEST(MapReplica, RebuildsTheLeadersCountersExactly) {
 }
 
 TEST(MapReplica, CompleteOnlyWithEveryTileAtTheNewestVersion) {
-  GridMap leader = random_map(4);
+  GridMap leader = test::random_map(4);
   MapReplica replica;
   const MapIdentity id;
   const auto keys = leader.tile_keys();
@@ -84,7 +68,7 @@ TEST(MapReplica, CompleteOnlyWithEveryTileAtTheNewestVersion) {
 }
 
 TEST(MapReplica, OlderOrEqualVersionsAreStale) {
-  GridMap leader = random_map(5);
+  GridMap leader = test::random_map(5);
   const TileKey k = leader.tile_keys().front();
   const TileMessage v1 = whole_tile_message(leader, k, {}, TileEncoding::kVarintZlib, 1);
   leader.add_hit({k.tx * 64, k.ty * 64});
@@ -98,7 +82,7 @@ TEST(MapReplica, OlderOrEqualVersionsAreStale) {
 }
 
 TEST(MapReplica, OtherMapsAndOlderEpochsAreIgnoredANewerEpochRestarts) {
-  const GridMap a = random_map(6), b = random_map(7, 500);
+  const GridMap a = test::random_map(6), b = test::random_map(7, 500);
   MapReplica replica("fleet");
   const TileKey ka = a.tile_keys().front();
   EXPECT_EQ(replica.apply(whole_tile_message(a, ka, {"other", 1}, TileEncoding::kRaw, 1)),
@@ -114,7 +98,7 @@ TEST(MapReplica, OtherMapsAndOlderEpochsAreIgnoredANewerEpochRestarts) {
 }
 
 TEST(MapReplica, MalformedTilesAreRejectedWithAReasonAndChangeNothing) {
-  const GridMap leader = random_map(8);
+  const GridMap leader = test::random_map(8);
   MapReplica replica;
   send_all(leader, replica, {});
   const std::string before = map_digest(replica.map());
@@ -158,32 +142,9 @@ TEST(MapReplica, MalformedTilesAreRejectedWithAReasonAndChangeNothing) {
   EXPECT_EQ(map_digest(replica.map()), before);
 }
 
-/// Random changes to `map` in a small area (hits, misses and some removals, so differences are
-/// also negative modulo 2^32), then one commit.
-void change_map(GridMap& map, std::mt19937& gen, int updates) {
-  std::uniform_int_distribution<int> cell(-150, 150);
-  for (int i = 0; i < updates; ++i) {
-    const CellIndex c{cell(gen), cell(gen)};
-    switch (gen() % 5) {
-      case 0:
-        map.add_hit(c);
-        break;
-      case 1:
-        map.remove_err(c);
-        break;
-      case 2:
-        map.remove_hit(c);
-        break;
-      default:
-        map.add_err(c);
-    }
-  }
-  map.commit_update();
-}
-
 TEST(MapReplica, RebuildsTheLeadersMapFromAMixOfTilesAndDeltas) {
   std::mt19937 gen(11);
-  GridMap leader = random_map(10);
+  GridMap leader = test::random_map(10);
   const MapIdentity id;
   MapReplica live;  // gets everything in order
   struct Sent {
@@ -195,7 +156,7 @@ TEST(MapReplica, RebuildsTheLeadersMapFromAMixOfTilesAndDeltas) {
   int fulls = 0, deltas = 0;
   const std::uint64_t full_every = 4;
   for (int step = 0; step < 40; ++step) {
-    change_map(leader, gen, step % 7 == 0 ? 400 : 30);
+    test::change_map(leader, gen, step % 7 == 0 ? 400 : 30);
     for (const TileKey k : leader.take_dirty()) {
       const Tile& tile = *leader.find_tile(k);
       auto [it, is_new] = sent.try_emplace(k);
@@ -242,7 +203,7 @@ TEST(MapReplica, RebuildsTheLeadersMapFromAMixOfTilesAndDeltas) {
 }
 
 TEST(MapReplica, ADeltaWithoutItsBaseNeedsBaseAndChangesNothing) {
-  GridMap leader = random_map(12);
+  GridMap leader = test::random_map(12);
   const MapIdentity id;
   const TileKey k = leader.tile_keys().front();
   const Tile* tile = leader.find_tile(k);
@@ -264,7 +225,7 @@ TEST(MapReplica, ADeltaWithoutItsBaseNeedsBaseAndChangesNothing) {
   MapReplica replica;
   EXPECT_EQ(replica.apply(d12), Applied::kNeedsBase);  // no map at all yet
   EXPECT_FALSE(replica.has_map());
-  send_all(random_map(13), replica, id);  // another map: no tile (900, ty)
+  send_all(test::random_map(13), replica, id);  // another map: no tile (900, ty)
   const std::string before = map_digest(replica.map());
   MapReplica fresh;
   EXPECT_EQ(fresh.apply(full1), Applied::kApplied);
@@ -286,7 +247,7 @@ TEST(MapReplica, ADeltaWithoutItsBaseNeedsBaseAndChangesNothing) {
 }
 
 TEST(MapReplica, MalformedDeltasAreRejectedWithAReasonAndChangeNothing) {
-  GridMap leader = random_map(14);
+  GridMap leader = test::random_map(14);
   const MapIdentity id;
   MapReplica replica;
   send_all(leader, replica, id);
@@ -331,7 +292,7 @@ TEST(MapReplica, MalformedDeltasAreRejectedWithAReasonAndChangeNothing) {
 }
 
 TEST(MapReplica, MalformedSummariesAreRejectedWithAReasonAndChangeNothing) {
-  const GridMap leader = random_map(15);
+  const GridMap leader = test::random_map(15);
   const MapIdentity id{"map", 4};
   MapReplica replica;
   send_all(leader, replica, id);

@@ -8,28 +8,13 @@
 #include <random>
 #include <stdexcept>
 #include <vector>
+#include "test_maps.hpp"
 
 namespace esfleet::mapshare {
 namespace {
 
-GridMap random_map(unsigned seed) {
-  GridMap map;
-  std::mt19937 gen(seed);
-  std::uniform_int_distribution<int> cell(-150, 150);
-  for (int i = 0; i < 3000; ++i) {
-    const CellIndex c{cell(gen), cell(gen)};
-    if (gen() % 3 == 0) {
-      map.add_hit(c);
-    } else {
-      map.add_err(c);
-    }
-  }
-  map.commit_update();
-  return map;
-}
-
 TEST(MapMessages, ADeltaNeedsAnOlderBaseOfTheTilesSize) {
-  const GridMap leader = random_map(15);
+  const GridMap leader = test::random_map(15);
   const TileKey k = leader.tile_keys().front();
   const Tile& t = *leader.find_tile(k);
   EXPECT_THROW(
@@ -43,7 +28,7 @@ TEST(MapMessages, ADeltaNeedsAnOlderBaseOfTheTilesSize) {
 }
 
 TEST(MapMessages, WholeTileCarriesTheTileAndItsIdentity) {
-  const GridMap leader = random_map(3);
+  const GridMap leader = test::random_map(3);
   const TileKey k = leader.tile_keys().back();
   const TileMessage m = whole_tile_message(leader, k, {"m", 4}, TileEncoding::kVarintZlib, 77);
   EXPECT_FALSE(m.is_delta());
@@ -62,7 +47,7 @@ TEST(MapMessages, WholeTileCarriesTheTileAndItsIdentity) {
 }
 
 TEST(MapMessages, MetaDescribesTheMap) {
-  const GridMap leader = random_map(9);
+  const GridMap leader = test::random_map(9);
   const MetaMessage m = meta_message(leader, {"m", 4}, false, 77, "{\"mu\":100}", 5);
   EXPECT_EQ(m.map_id, "m");
   EXPECT_EQ(m.epoch, 4u);

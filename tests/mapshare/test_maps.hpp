@@ -31,6 +31,23 @@ inline void change_map(GridMap& map, std::mt19937& gen, int updates) {
   map.commit_update();
 }
 
+/// A leader map with `updates` random hits and misses over a few tiles (negative keys too).
+inline GridMap random_map(unsigned seed, int updates = 3000) {
+  GridMap map;
+  std::mt19937 gen(seed);
+  std::uniform_int_distribution<int> cell(-150, 150);
+  for (int i = 0; i < updates; ++i) {
+    const CellIndex c{cell(gen), cell(gen)};
+    if (gen() % 3 == 0) {
+      map.add_hit(c);
+    } else {
+      map.add_err(c);
+    }
+  }
+  map.commit_update();
+  return map;
+}
+
 /// A copy of `map`'s tiles (counters and versions) in a new map of the same layout.
 inline GridMap copy_of(const GridMap& map) {
   GridMap out(map.config());
