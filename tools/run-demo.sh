@@ -51,15 +51,15 @@ robots=$(ls -d "$out"/fleet/robot-*/ 2>/dev/null | wc -l)
 cat <<RECAP
 
 == what the demo produced ==
-$out/                      the leader's offline map of the whole log (with odometry)
-  map.png                    the map with the trajectory (start green, end blue)
-  map.pgm, map.yaml          the map for ROS map_server / nav2 / RViz
-  trajectory.txt, stats.json the poses (t x y theta) and the run's figures
-$out/shared/leader/        the map a leader shared over DDS (first 1000 scans)
-$out/shared/follower-1/    what follower-1 received (map.digest equals the leader's) and its
-                             own track (map.png, trajectory.txt)
-$out/fleet/summary.json    the simulated fleet: per robot time to localise, error, CPU
-$out/fleet/robot-1 .. robot-$robots/  each robot's copy of the map with its track (map.png)
-$out/fleet/*.log           every program's log
+- $out/map.png: the leader's offline map of the whole log with its trajectory (start green,
+  end blue); map.pgm + map.yaml for ROS map_server, nav2 and RViz; trajectory.txt (t x y theta
+  per scan) and stats.json (the run's figures)
+- $out/shared/leader/: the map a leader shared over DDS (the first 1000 scans)
+- $out/shared/follower-1/: what follower-1 received (its map.digest equals the leader's) and,
+  in map.png and trajectory.txt, its own track
+- $out/fleet/summary.json: the simulated fleet, per robot the time to localise, the error
+  against the simulator's truth, CPU and memory
+- $out/fleet/robot-1/ .. robot-$robots/: each robot's copy of the map with its track (map.png)
+- $out/fleet/*.log: every program's log
 RECAP
 
