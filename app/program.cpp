@@ -21,6 +21,18 @@ std::string footer(const std::string& extra) {
 
 const char* version() { return kVersion; }
 
+void setup_step(const std::string& what, const std::function<void()>& body) {
+  try {
+    body();
+  } catch (const std::exception& e) {
+    throw UsageError(what.empty() ? e.what() : what + ": " + e.what());
+  }
+}
+
+std::string name_flag(const std::string& flag, const std::string& value, const std::string& cause) {
+  return flag + " " + (cause.rfind(value, 0) == 0 ? cause : value + ": " + cause);
+}
+
 Program::Program(std::string name, std::string logger, std::string description,
                  std::string exit_codes)
     : name_(std::move(name)), cli_(std::move(description), name_) {

@@ -35,6 +35,15 @@ class UsageError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// Runs one set-up step of a program (reading an input, creating the DDS participant, ...); an
+/// exception escaping `body` becomes a UsageError "<what>: <cause>" (the cause alone when
+/// `what` is empty), so the program exits 2 naming the step.
+void setup_step(const std::string& what, const std::function<void()>& body);
+
+/// "<flag> <value>: <cause>", or "<flag> <cause>" when the cause already starts with the value
+/// (a message that names the file itself): an error naming the flag and the input once.
+std::string name_flag(const std::string& flag, const std::string& value, const std::string& cause);
+
 /// The esfleet version ("0.1.0").
 const char* version();
 

@@ -22,30 +22,23 @@ static_assert(kStatusLocalising == msg::kStatusLocalising);
 static_assert(kStatusTracking == msg::kStatusTracking);
 static_assert(kStatusLost == msg::kStatusLost);
 
-namespace {
-/// "FLAG VALUE: what", without the value twice when the message starts with it already.
-std::string naming(const std::string& flag, const std::string& value, const std::string& what) {
-  return flag + " " + (what.rfind(value, 0) == 0 ? what : value + ": " + what);
-}
-}  // namespace
-
 FleetApp::FleetApp(FleetOptions options, const std::atomic<bool>& stop)
     : o_(std::move(options)), stop_(stop), bin_dir_(o_.bin_directory()) {
   try {
     (void)load_ros_map(o_.world);  // a clear error here rather than in the simulator's log
   } catch (const std::exception& e) {
-    throw UsageError(naming("--world", o_.world, e.what()));
+    throw UsageError(app::name_flag("--world", o_.world, e.what()));
   }
   try {
     fs::create_directories(o_.out);
   } catch (const std::exception& e) {
-    throw UsageError(naming("--out", o_.out, e.what()));
+    throw UsageError(app::name_flag("--out", o_.out, e.what()));
   }
   try {
     const fs::path sp = fs::path(o_.summary_path()).parent_path();
     if (!sp.empty()) fs::create_directories(sp);
   } catch (const std::exception& e) {
-    throw UsageError(naming("--summary", o_.summary_path(), e.what()));
+    throw UsageError(app::name_flag("--summary", o_.summary_path(), e.what()));
   }
   std::signal(SIGPIPE, SIG_IGN);
 

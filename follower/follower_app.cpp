@@ -4,7 +4,6 @@
 
 #include <csignal>
 #include <filesystem>
-#include <functional>
 #include <thread>
 
 #include "app/program.hpp"
@@ -24,15 +23,6 @@ extern "C" void on_save_signal(int) { g_save.store(true); }
 /// Nothing from any leader after this long: say what is likely wrong, once.
 constexpr double kNoMapWarnS = 10.0;
 
-/// Runs one set-up step; any failure becomes a UsageError naming the step.
-void step(const std::string& what, const std::function<void()>& body) {
-  try {
-    body();
-  } catch (const std::exception& e) {
-    throw app::UsageError(what.empty() ? e.what() : what + ": " + e.what());
-  }
-}
-
 GridMapConfig local_map_config(const LocaliserConfig& c) {
   GridMapConfig local;
   local.pyramid_levels = std::max(c.coarse_level, c.mid_level);
@@ -50,7 +40,7 @@ FollowerApp::FollowerApp(FollowerOptions options, const std::atomic<bool>& stop)
       last_report_(start_) {
   std::signal(SIGUSR1, on_save_signal);
   if (!o_.log.empty()) {
-    step("", [&] {
+    app::setup_step("", [&] {
       std::vector<LaserScan> scans =
           app::read_log(o_.log, o_.reader, o_.max_scans, o_.localiser.slam.use_odometry, stop_);
       if (o_.first_scan >= scans.size()) {
@@ -62,7 +52,7 @@ FollowerApp::FollowerApp(FollowerOptions options, const std::atomic<bool>& stop)
       source_ = std::make_unique<app::LogScanSource>(std::move(scans), o_.rate);
     });
   }
-  step("DDS", [&] {
+  app::setup_step("DDS", [&] {
     node_ = std::make_unique<dds::Node>(
         dds::NodeOptions{o_.domain, o_.profile, "esfleet-follower", o_.secure});
     map_ = std::make_unique<MapSubscriber>(*node_, o_.map_id, local_map_config(o_.localiser));

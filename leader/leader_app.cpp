@@ -3,7 +3,6 @@
 #include <spdlog/spdlog.h>
 
 #include <chrono>
-#include <functional>
 #include <thread>
 #include <vector>
 
@@ -17,15 +16,6 @@ namespace {
 
 /// Progress line every this many scans when the total is not known (--scan-topic).
 constexpr std::size_t kTopicProgressEvery = 100;
-
-/// Runs one set-up step; any failure becomes a UsageError naming the step.
-void step(const std::string& what, const std::function<void()>& body) {
-  try {
-    body();
-  } catch (const std::exception& e) {
-    throw app::UsageError(what.empty() ? e.what() : what + ": " + e.what());
-  }
-}
 
 nlohmann::json params_json(const LeaderOptions& o) {
   nlohmann::json j = nlohmann::json::object();
@@ -99,7 +89,7 @@ LeaderApp::LeaderApp(LeaderOptions options, const std::atomic<bool>& stop)
 LeaderApp::~LeaderApp() = default;  // members in reverse: checkpoints, source, publisher, node
 
 void LeaderApp::resume_checkpoint() {
-  step("--resume " + o_.resume_dir, [&] {
+  app::setup_step("--resume " + o_.resume_dir, [&] {
     resumed_ = load_checkpoint(o_.resume_dir, slam_);
     const std::string changed = changed_params(resumed_->info.params_json, params_json(o_));
     if (!changed.empty()) {
@@ -125,7 +115,7 @@ void LeaderApp::resume_checkpoint() {
 }
 
 void LeaderApp::read_log() {
-  step("", [&] {
+  app::setup_step("", [&] {
     std::vector<LaserScan> scans =
         app::read_log(o_.log, o_.reader, o_.max_scans, o_.slam.use_odometry, stop_);
     if (resumed_) {
@@ -150,7 +140,7 @@ void LeaderApp::read_log() {
 void LeaderApp::open_dds() {
   if (!o_.map_id) o_.map_id = "map";
   if (!o_.epoch) o_.epoch = static_cast<std::uint32_t>(dds::realtime_ns() / 1'000'000'000);
-  step("DDS", [&] {
+  app::setup_step("DDS", [&] {
     node_ = std::make_unique<dds::Node>(
         dds::NodeOptions{o_.domain, o_.profile, "esfleet-leader", o_.secure});
     publisher_ = std::make_unique<MapPublisher>(
@@ -173,7 +163,7 @@ void LeaderApp::open_dds() {
 
 void LeaderApp::open_checkpoints() {
   const std::string dir = o_.out_dir + "/checkpoint";
-  step("checkpoint directory " + dir, [&] {
+  app::setup_step("checkpoint directory " + dir, [&] {
     checkpoints_.emplace(o_.out_dir, o_.checkpoint_every,
                          CheckpointInfo{o_.map_id.value_or("map"), o_.epoch.value_or(0), 0,
                                         o_.input_name(), params_json_},

@@ -42,11 +42,6 @@ double process_cpu_seconds() {
   return secs(ru.ru_utime) + secs(ru.ru_stime);
 }
 
-/// "FLAG VALUE: what", without the value twice when the message starts with it already.
-std::string naming(const std::string& flag, const std::string& value, const std::string& what) {
-  return flag + " " + (what.rfind(value, 0) == 0 ? what : value + ": " + what);
-}
-
 }  // namespace
 
 /// The DDS side: one participant, one scan writer per robot (in the robot's partition, so a
@@ -141,14 +136,14 @@ SimApp::SimApp(SimOptions options, const std::atomic<bool>& stop)
   try {
     world_ = std::make_unique<World>(load_world(o_.world));
   } catch (const std::exception& e) {
-    throw UsageError(naming("--world", o_.world, e.what()));
+    throw UsageError(app::name_flag("--world", o_.world, e.what()));
   }
   try {
     fleet_ = std::make_unique<Fleet>(*world_, o_.fleet_config());
   } catch (const std::invalid_argument&) {
     throw;  // a bad config: the message names the flag
   } catch (const std::exception& e) {
-    throw UsageError(naming("--world", o_.world, e.what()));  // e.g. no drivable space
+    throw UsageError(app::name_flag("--world", o_.world, e.what()));  // e.g. no drivable space
   }
   log_config();
   if (!o_.out_log.empty()) {
@@ -156,7 +151,7 @@ SimApp::SimApp(SimOptions options, const std::atomic<bool>& stop)
       std::filesystem::create_directories(o_.out_log);
       for (const auto& r : fleet_->robots()) logs_.emplace_back(o_.out_log, r.id());
     } catch (const std::exception& e) {
-      throw UsageError(naming("--out-log", o_.out_log, e.what()));
+      throw UsageError(app::name_flag("--out-log", o_.out_log, e.what()));
     }
   }
   if (!o_.offline) publisher_ = std::make_unique<ScanPublisher>(o_, *fleet_);

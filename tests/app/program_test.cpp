@@ -58,6 +58,19 @@ TEST(Program, RunMapsExceptionsToExitCodes) {
   EXPECT_EQ(p.run([]() -> int { throw std::runtime_error("disk full"); }), kExitFailure);
 }
 
+TEST(Program, ASetUpStepThatFailsIsAUsageErrorNamingTheStep) {
+  try {
+    setup_step("DDS", [] { throw std::runtime_error("domain 300 out of range"); });
+    FAIL() << "no exception";
+  } catch (const UsageError& e) {
+    EXPECT_STREQ(e.what(), "DDS: domain 300 out of range");
+  }
+  EXPECT_NO_THROW(setup_step("fine", [] {}));
+  EXPECT_EQ(name_flag("--world", "w.yaml", "w.yaml: field 'resolution' missing"),
+            "--world w.yaml: field 'resolution' missing");
+  EXPECT_EQ(name_flag("--out", "o", "Permission denied"), "--out o: Permission denied");
+}
+
 TEST(ParamTable, HelpShowsEachValueType) {
   double d = 0.5;
   int i = 3;
