@@ -5,7 +5,9 @@
 #include <cmath>
 #include <filesystem>
 
-#include "esfleet/core/map_io.hpp"
+#include "esfleet/core/file_io.hpp"
+#include "esfleet/core/map_png.hpp"
+#include "esfleet/core/ros_map_writer.hpp"
 #include "esfleet/core/tile_codec.hpp"
 #include "esfleet/core/trajectory_io.hpp"
 

@@ -6,7 +6,7 @@
 
 #include "app/slam_params.hpp"
 #include "app/slam_run.hpp"
-#include "esfleet/core/map_io.hpp"
+#include "esfleet/core/file_io.hpp"
 
 namespace esfleet::bench {
 

@@ -26,7 +26,8 @@
 #include <thread>
 
 #include "app/slam_run.hpp"
-#include "esfleet/core/map_io.hpp"
+#include "esfleet/core/file_io.hpp"
+#include "esfleet/core/ros_map_reader.hpp"
 #include "esfleet/dds/node.hpp"
 #include "esfleet/dds/reader.hpp"
 #include "fleet_monitor.hpp"

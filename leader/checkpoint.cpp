@@ -8,7 +8,7 @@
 #include <stdexcept>
 #include <vector>
 
-#include "esfleet/core/map_io.hpp"
+#include "esfleet/core/file_io.hpp"
 #include "esfleet/core/slam_snapshot.hpp"
 
 namespace esfleet::leader {
