@@ -63,7 +63,7 @@ void add_localise_bench_options(CLI::App& cmd, LocaliseBenchOptions& o) {
                  "the leader's SLAM with odometry: same as the followers' (--odometry), on or off")
       ->check(CLI::IsMember({"same", "on", "off"}))
       ->capture_default_str();
-  app::add_slam_params(o.params, &o.config.slam, &o.reader);
+  app::add_slam_params(o.params, &o.slam, &o.reader);
   app::add_localise_params(o.params, &o.config);
   o.params.bind(cmd, "Parameters (leader SLAM and follower)");
 }
@@ -271,7 +271,8 @@ StartResult run_start(const LocaliserConfig& config, const GridMap& map,
       // (the ES search, --localise-search es, records no stages)
       if (step.global_search && !loc.last_search().coarse.empty()) {
         // The coarse score at the reference itself, as the grid search scores its samples.
-        const ScanPoints pts = prepare_scan(scans[j], config.slam.min_range, config.slam.max_range);
+        const ScanPoints pts =
+            prepare_scan(scans[j], config.tracking.min_range, config.tracking.max_range);
         const float truth_coarse =
             FitnessEvaluator(map, pts, loc.coarse_options(map, pts)).fitness(ref(j));
         r.trace += trace_search(loc.last_search(), ref(j), r, truth_coarse);
@@ -419,6 +420,8 @@ int run_localise_bench(LocaliseBenchOptions& o) {
   std::vector<LaserScan> scans;
   try {
     o.params.apply();
+    o.config.tracking = o.slam.tracking;
+    o.slam.validate();
     o.config.validate();
     scans = read_carmen_log(o.log, o.reader);
   } catch (const std::exception& e) {
@@ -442,8 +445,8 @@ int run_localise_bench(LocaliseBenchOptions& o) {
   // The leader: one SLAM run over the whole log; the map as it was at half time is kept.
   std::fprintf(stderr, "%s: %zu scans; mapping (leader SLAM) ...\n", o.log.c_str(), scans.size());
   const int levels = o.config.coarse_level;
-  SlamConfig leader_config = o.config.slam;
-  if (o.leader_odometry != "same") leader_config.use_odometry = o.leader_odometry == "on";
+  SlamConfig leader_config = o.slam;
+  if (o.leader_odometry != "same") leader_config.tracking.use_odometry = o.leader_odometry == "on";
   Slam slam(leader_config);
   const std::size_t half = scans.size() / 2;
   std::optional<GridMap> half_map;
@@ -469,7 +472,8 @@ int run_localise_bench(LocaliseBenchOptions& o) {
       std::lock_guard<std::mutex> lock(cache_mutex);
       if (half_ref_cache[i]) return *half_ref_cache[i];
     }
-    const ScanPoints pts = prepare_scan(scans[i], o.config.slam.min_range, o.config.slam.max_range);
+    const ScanPoints pts =
+        prepare_scan(scans[i], o.config.tracking.min_range, o.config.tracking.max_range);
     FitnessOptions fo;
     fo.interpolate = true;
     const FitnessEvaluator eval(*half_map, pts, fo);
@@ -486,8 +490,8 @@ int run_localise_bench(LocaliseBenchOptions& o) {
   out["budget_scans"] = o.budget;
   out["tolerance"] = {{"xy_m", kTolXy}, {"theta_deg", kTolThetaDeg}};
   out["search"] = o.config.global == GlobalSearch::kEs ? "es" : "grid";
-  out["leader_odometry"] = leader_config.use_odometry;
-  out["follower_odometry"] = o.config.slam.use_odometry;
+  out["leader_odometry"] = leader_config.tracking.use_odometry;
+  out["follower_odometry"] = o.config.tracking.use_odometry;
   std::vector<StartResult> pooled;
   std::string trace_text;
   // Each part draws from its own stream, so a case's starts do not depend on which other
@@ -510,7 +514,7 @@ int run_localise_bench(LocaliseBenchOptions& o) {
         bool covered = true;
         for (std::size_t j = s; j < s + kCoveredScans && j < scans.size() && covered; ++j) {
           const ScanPoints pts =
-              prepare_scan(scans[j], o.config.slam.min_range, o.config.slam.max_range);
+              prepare_scan(scans[j], o.config.tracking.min_range, o.config.tracking.max_range);
           const FitnessValue v = FitnessEvaluator(map, pts).evaluate(ref[j].pose);
           covered = v.n_points > 0 && 2 * v.n_known >= v.n_points;
         }
@@ -531,8 +535,8 @@ int run_localise_bench(LocaliseBenchOptions& o) {
       results[i] =
           run_start(c, map, scans, reference, starts[i], o.budget, !o.trace.empty(), o.trace_all);
       {
-        const ScanPoints pts =
-            prepare_scan(scans[starts[i]], o.config.slam.min_range, o.config.slam.max_range);
+        const ScanPoints pts = prepare_scan(scans[starts[i]], o.config.tracking.min_range,
+                                            o.config.tracking.max_range);
         FitnessOptions fo;
         fo.interpolate = true;
         results[i].reference_agreement =

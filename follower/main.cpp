@@ -137,16 +137,20 @@ int main(int argc, char** argv) {
   cli.add_option("--trajectory", trajectory_path,
                  "write the tracked poses (stamp x y theta per line) to this file at exit");
   app::ParamTable params;
+  // The SLAM flags, as the leader takes them: tracking uses slam.tracking and slam.seed.
+  SlamConfig slam;
   LocaliserConfig lconfig;
   CarmenReaderOptions reader_options;
-  app::add_slam_params(params, &lconfig.slam, &reader_options);
+  app::add_slam_params(params, &slam, &reader_options);
   app::add_localise_params(params, &lconfig);
   params.bind(cli, "Localisation parameters (tracking uses the SLAM's)");
   CLI11_PARSE(cli, argc, argv);
   try {
     params.apply();
     if (!hint_text.empty()) lconfig.hint = app::parse_hint(hint_text);
-    lconfig.seed = lconfig.slam.seed;
+    lconfig.tracking = slam.tracking;
+    lconfig.seed = slam.seed;
+    slam.validate();
     lconfig.validate();
   } catch (const std::exception& e) {
     spdlog::error("{}", e.what());
@@ -169,7 +173,7 @@ int main(int argc, char** argv) {
   try {
     if (!log_path.empty()) {
       std::vector<LaserScan> scans =
-          app::read_log(log_path, reader_options, max_scans, lconfig.slam.use_odometry, g_stop);
+          app::read_log(log_path, reader_options, max_scans, lconfig.tracking.use_odometry, g_stop);
       if (first_scan >= scans.size()) {
         throw std::invalid_argument("--first-scan " + std::to_string(first_scan) + ": " + log_path +
                                     " has only " + std::to_string(scans.size()) + " scans" +

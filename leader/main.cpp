@@ -251,7 +251,7 @@ int main(int argc, char** argv) {
   if (!log_path.empty()) {
     try {
       std::vector<LaserScan> scans =
-          app::read_log(log_path, reader_options, max_scans, config.use_odometry, g_stop);
+          app::read_log(log_path, reader_options, max_scans, config.tracking.use_odometry, g_stop);
       if (resumed) {
         const std::size_t skip = resumed->info.scans;
         if (skip > scans.size()) {

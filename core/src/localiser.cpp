@@ -25,7 +25,7 @@ const char* to_string(LocaliserState s) {
 }
 
 void LocaliserConfig::validate() const {
-  slam.validate();
+  tracking.validate();
   auto check = [](bool ok, const char* what) {
     if (!ok) throw std::invalid_argument(what);
   };
@@ -137,9 +137,9 @@ double median_range(const ScanPoints& points) {
 
 Localiser::Localiser(LocaliserConfig config)
     : config_(std::move(config)),
-      es_(config_.slam.es),
+      es_(config_.tracking.es),
       hypothesis_es_([this] {
-        EsConfig c = config_.slam.es;
+        EsConfig c = config_.tracking.es;
         c.iterations = config_.hypothesis_iterations;
         return c;
       }()),
@@ -166,13 +166,13 @@ std::vector<Localiser::HypothesisView> Localiser::hypotheses() const {
 }
 
 FitnessEvaluator Localiser::fine_evaluator(const GridMap& map, const ScanPoints& points) const {
-  return FitnessEvaluator(
-      map, points,
-      slam_fitness_options(config_.slam, config_.slam.interpolation != Interpolation::kNone));
+  return FitnessEvaluator(map, points,
+                          slam_fitness_options(config_.tracking, config_.tracking.interpolation !=
+                                                                     Interpolation::kNone));
 }
 
 FitnessOptions Localiser::coarse_options(const GridMap& map, const ScanPoints& points) const {
-  FitnessOptions o = slam_fitness_options(config_.slam, false);
+  FitnessOptions o = slam_fitness_options(config_.tracking, false);
   o.level = std::min(config_.coarse_level, map.pyramid_levels());
   o.stride = std::max(1, static_cast<int>(points.size()) / std::max(1, config_.coarse_points));
   o.use_penalty = o.use_penalty && config_.coarse_score != CoarseScore::kSum;
@@ -281,7 +281,7 @@ std::vector<Pose2> Localiser::grid_candidates(const GridMap& map, const ScanPoin
   };
   if (by != CoarseScore::kSum) keep_best(best_fit);
   if (by != CoarseScore::kFitness) keep_best(best_sum);
-  FitnessOptions mid_options = slam_fitness_options(config_.slam, false);
+  FitnessOptions mid_options = slam_fitness_options(config_.tracking, false);
   mid_options.level = std::min(config_.mid_level, map.pyramid_levels());
   const FitnessEvaluator mid(map, points, mid_options);
   const double mid_cell = map.cell_size() * static_cast<double>(1 << mid_options.level);
@@ -326,7 +326,7 @@ std::vector<Pose2> Localiser::grid_candidates(const GridMap& map, const ScanPoin
   std::vector<Pose2> out;
   for (const Pose2& c : kept) {
     const auto initial =
-        make_initial_population(config_.slam.es.mu, mid_cell, step_theta / 4.0, rng_);
+        make_initial_population(config_.tracking.es.mu, mid_cell, step_theta / 4.0, rng_);
     const EsResult r = es_.search(fine, c, initial, rng_);
     out.push_back(refine_pose(fine, r.pose, 0.02, deg_to_rad(0.5), 0.001).pose);
   }
@@ -338,7 +338,7 @@ std::vector<Pose2> Localiser::es_candidates(const GridMap& map, const ScanPoints
                                             double span) {
   // The paper's way: the initial population spread over free space and headings; the ES
   // climbs from there. Corrections are absolute poses (centre at the origin).
-  const FitnessEvaluator eval(map, points, slam_fitness_options(config_.slam, false));
+  const FitnessEvaluator eval(map, points, slam_fitness_options(config_.tracking, false));
   struct Run {
     float fitness;
     Pose2 pose;
@@ -347,7 +347,7 @@ std::vector<Pose2> Localiser::es_candidates(const GridMap& map, const ScanPoints
   const auto n = static_cast<std::uint32_t>(samples.size());
   const double cell = map.cell_size();
   for (int r = 0; r < config_.es_restarts; ++r) {
-    std::vector<Correction> initial(static_cast<std::size_t>(config_.slam.es.mu));
+    std::vector<Correction> initial(static_cast<std::size_t>(config_.tracking.es.mu));
     for (Correction& g : initial) {
       const Pose2& s = samples[rng_.below(n)];
       g.dx = s.x + (rng_.uniform() - 0.5) * cell;
@@ -435,7 +435,7 @@ void Localiser::localise(const GridMap& map, const ScanPoints& points, const Las
   // Follow every hypothesis with the per-scan tracking step.
   for (Hypothesis& h : pool_) {
     const TrackResult t =
-        track_scan(config_.slam, hypothesis_es_, rng_, map, points, scan, h.motion);
+        track_scan(config_.tracking, hypothesis_es_, rng_, map, points, scan, h.motion);
     const Pose2 before = h.motion.last.pose;
     h.motion.previous = h.motion.last;
     h.motion.last = {scan.stamp, t.result.pose};
@@ -564,7 +564,7 @@ void Localiser::localise(const GridMap& map, const ScanPoints& points, const Las
 
 void Localiser::track(const GridMap& map, const ScanPoints& points, const LaserScan& scan,
                       LocaliserStep& step) {
-  const TrackResult t = track_scan(config_.slam, es_, rng_, map, points, scan, tracked_.motion);
+  const TrackResult t = track_scan(config_.tracking, es_, rng_, map, points, scan, tracked_.motion);
   tracked_.motion.previous = tracked_.motion.last;
   tracked_.motion.last = {scan.stamp, t.result.pose};
   if (scan.odometry) tracked_.motion.odometry = scan.odometry;
@@ -592,7 +592,8 @@ LocaliserStep Localiser::process(const GridMap& map, const LaserScan& scan) {
     state_ = LocaliserState::kWaitingForMap;
   } else {
     if (state_ == LocaliserState::kWaitingForMap) state_ = LocaliserState::kLocalising;
-    const ScanPoints points = prepare_scan(scan, config_.slam.min_range, config_.slam.max_range);
+    const ScanPoints points =
+        prepare_scan(scan, config_.tracking.min_range, config_.tracking.max_range);
     if (points.size() == 0) {
       // Nothing to match: keep the state, report the last pose.
       step.pose = state_ == LocaliserState::kTracking ? tracked_.motion.last.pose : Pose2{};

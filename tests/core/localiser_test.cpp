@@ -171,7 +171,7 @@ TEST(Localiser, TheCoarseScoreIsThePenalisedFitnessOrTheSumOfMapValues) {
     ASSERT_TRUE(loc.process(map, scan).global_search);
     const Localiser::SearchStages& st = loc.last_search();
     ASSERT_FALSE(st.samples.empty());
-    const ScanPoints pts = prepare_scan(scan, c.slam.min_range, c.slam.max_range);
+    const ScanPoints pts = prepare_scan(scan, c.tracking.min_range, c.tracking.max_range);
     // Each sample's score is the fitness (Condition 1 or 2) on the coarse level at the heading
     // recorded for it.
     FitnessOptions o;

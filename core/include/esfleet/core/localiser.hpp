@@ -30,7 +30,6 @@
 #include "esfleet/core/grid_map.hpp"
 #include "esfleet/core/laser_scan.hpp"
 #include "esfleet/core/random.hpp"
-#include "esfleet/core/slam.hpp"
 #include "esfleet/core/tracking.hpp"
 
 namespace esfleet {
@@ -71,9 +70,9 @@ struct PoseHint {
 };
 
 struct LocaliserConfig {
-  /// Tracking parameters: the leader's SLAM configuration (ES, prediction, fitness); its map,
-  /// insertion and loop-closure settings are not used.
-  SlamConfig slam;
+  /// The per-scan tracking step, as the leader's SLAM runs it (ES, prediction, fitness; the
+  /// follower takes it from the SLAM flags).
+  TrackingConfig tracking;
   GlobalSearch global = GlobalSearch::kGrid;
   std::optional<PoseHint> hint;
   /// A hint that yields no declared pose within this many scans widens to the global search.
