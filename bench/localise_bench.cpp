@@ -138,7 +138,7 @@ int rank_near(const std::vector<Pose2>& poses, const Pose2& truth) {
 }
 
 /// --trace: where the reference stood in the last grid search; counts it into `r`.
-std::string trace_search(const Localiser::SearchStages& st, const Pose2& truth, StartResult& r,
+std::string trace_search(const SearchStages& st, const Pose2& truth, StartResult& r,
                          float truth_coarse) {
   const int coarse = rank_near(st.coarse, truth);
   const int ranked = rank_near(st.ranked, truth);
@@ -192,9 +192,8 @@ constexpr double kNearPath = 1.0;
 using Reference = std::function<Pose2(std::size_t)>;
 
 /// One trace line: the leading hypothesis and the one nearest the reference.
-std::string trace_line(std::size_t scan, const LocaliserStep& step, const Localiser& loc,
-                       const Pose2& truth) {
-  const auto hyps = loc.hypotheses();
+std::string trace_line(std::size_t scan, const LocaliserStep& step,
+                       const std::vector<HypothesisView>& hyps, const Pose2& truth) {
   char buf[512];
   const PoseError lead = pose_error(step.pose, truth);
   int n =
@@ -205,8 +204,8 @@ std::string trace_line(std::size_t scan, const LocaliserStep& step, const Locali
                     lead.xy, lead.theta_deg, static_cast<double>(step.value.agreement()),
                     step.value.known_share(), static_cast<double>(step.score));
   float top = 0.0f, second = 0.0f;
-  const Localiser::HypothesisView* near = nullptr;
-  const Localiser::HypothesisView* leader = nullptr;
+  const HypothesisView* near = nullptr;
+  const HypothesisView* leader = nullptr;
   double near_d = 1e9;
   for (const auto& h : hyps) {
     if (h.score > top) {
@@ -241,10 +240,10 @@ std::string trace_line(std::size_t scan, const LocaliserStep& step, const Locali
 }
 
 /// --trace-all: every hypothesis of the pool, "id:error m:error deg:hits:known:points".
-std::string trace_hypotheses(const Localiser& loc, const Pose2& truth) {
+std::string trace_hypotheses(const std::vector<HypothesisView>& hyps, const Pose2& truth) {
   std::string out = "    pool";
   char buf[96];
-  for (const auto& h : loc.hypotheses()) {
+  for (const auto& h : hyps) {
     const PoseError e = pose_error(h.pose, truth);
     std::snprintf(buf, sizeof buf, " %u:%.2f:%.1f:%d:%d:%d", h.id, e.xy, e.theta_deg, h.value.n_hit,
                   h.value.n_known, h.value.n_points);
@@ -253,11 +252,30 @@ std::string trace_hypotheses(const Localiser& loc, const Pose2& truth) {
   return out + "\n";
 }
 
+/// --trace: what the localiser of a start reports (the last global search's stages, the
+/// hypotheses after the last scan).
+class TraceObserver : public LocaliserObserver {
+ public:
+  bool wants_search_stages() const override { return true; }
+  void on_search_stages(const SearchStages& stages) override { last_search_ = stages; }
+  void on_scan(const LocaliserStep& /*step*/,
+               const std::vector<HypothesisView>& hypotheses) override {
+    hypotheses_ = hypotheses;
+  }
+  const SearchStages& last_search() const { return last_search_; }
+  const std::vector<HypothesisView>& hypotheses() const { return hypotheses_; }
+
+ private:
+  SearchStages last_search_;
+  std::vector<HypothesisView> hypotheses_;
+};
+
 StartResult run_start(const LocaliserConfig& config, const GridMap& map,
                       const std::vector<LaserScan>& scans, const Reference& ref, std::size_t start,
                       int budget, bool trace, bool trace_all) {
   Localiser loc(config);
-  loc.record_search_stages(trace);
+  TraceObserver observer;
+  if (trace) loc.set_observer(&observer);
   StartResult r;
   r.start = start;
   double cpu_ms = 0.0;
@@ -266,16 +284,16 @@ StartResult run_start(const LocaliserConfig& config, const GridMap& map,
     cpu_ms += step.cpu_ms;
     ++r.scans;
     if (trace) {
-      r.trace += trace_line(j, step, loc, ref(j));
-      if (trace_all) r.trace += trace_hypotheses(loc, ref(j));
+      r.trace += trace_line(j, step, observer.hypotheses(), ref(j));
+      if (trace_all) r.trace += trace_hypotheses(observer.hypotheses(), ref(j));
       // (the ES search, --localise-search es, records no stages)
-      if (step.global_search && !loc.last_search().coarse.empty()) {
+      const SearchStages& st = observer.last_search();
+      if (step.global_search && !st.coarse.empty()) {
         // The coarse score at the reference itself, as the grid search scores its samples.
         const ScanPoints pts =
             prepare_scan(scans[j], config.tracking.min_range, config.tracking.max_range);
-        const float truth_coarse =
-            FitnessEvaluator(map, pts, loc.coarse_options(map, pts)).fitness(ref(j));
-        r.trace += trace_search(loc.last_search(), ref(j), r, truth_coarse);
+        const float truth_coarse = FitnessEvaluator(map, pts, st.coarse_options).fitness(ref(j));
+        r.trace += trace_search(st, ref(j), r, truth_coarse);
       }
     }
     if (step.declared) {
@@ -444,7 +462,7 @@ int run_localise_bench(LocaliseBenchOptions& o) {
   }
   // The leader: one SLAM run over the whole log; the map as it was at half time is kept.
   std::fprintf(stderr, "%s: %zu scans; mapping (leader SLAM) ...\n", o.log.c_str(), scans.size());
-  const int levels = o.config.coarse_level;
+  const int levels = o.config.search.coarse_level;
   SlamConfig leader_config = o.slam;
   if (o.leader_odometry != "same") leader_config.tracking.use_odometry = o.leader_odometry == "on";
   Slam slam(leader_config);
@@ -489,7 +507,7 @@ int run_localise_bench(LocaliseBenchOptions& o) {
   out["scans"] = scans.size();
   out["budget_scans"] = o.budget;
   out["tolerance"] = {{"xy_m", kTolXy}, {"theta_deg", kTolThetaDeg}};
-  out["search"] = o.config.global == GlobalSearch::kEs ? "es" : "grid";
+  out["search"] = o.config.search.method == GlobalSearchMethod::kEs ? "es" : "grid";
   out["leader_odometry"] = leader_config.tracking.use_odometry;
   out["follower_odometry"] = o.config.tracking.use_odometry;
   std::vector<StartResult> pooled;

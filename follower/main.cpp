@@ -190,7 +190,7 @@ int main(int argc, char** argv) {
     node = std::make_unique<dds::Node>(
         dds::NodeOptions{domain, profile, "esfleet-follower", secure_dir});
     GridMapConfig local;
-    local.pyramid_levels = std::max(lconfig.coarse_level, lconfig.mid_level);
+    local.pyramid_levels = std::max(lconfig.search.coarse_level, lconfig.search.mid_level);
     follow = std::make_unique<follower::MapFollower>(*node, map_id, local);
     if (!scan_robot.empty()) {
       auto t = std::make_unique<app::TopicScanSource>(*node, scan_robot, idle_exit, latest_only);

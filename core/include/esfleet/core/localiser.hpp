@@ -2,13 +2,8 @@
 // The follower's self-localisation in a received map (ours, after the authors' multi-robot
 // work; ../docs/localisation.md has the measurements):
 //
-//  1. Global search (no prior knowledge): candidate poses over the known free space of the map
-//     and all headings. Default kGrid: every sample position (a grid over free cells) and
-//     heading is scored on a coarse pyramid level (CoarseScore), the best distinct ones are
-//     re-ranked by evidence on a finer level and the best of those refined with the (mu+1)-ES
-//     at full resolution. kEs (the paper's way): the ES itself, its initial
-//     population spread uniformly over free space and headings, restarted `es_restarts` times.
-//     With a hint, both search a box around it.
+//  1. Global search (no prior knowledge; global_search.hpp): candidate poses over the known
+//     free space of the map and all headings, or around a hint.
 //  2. Hypotheses: every candidate is tracked scan by scan with the same per-scan step as the
 //     leader (tracking.hpp). A pose is declared only when one hypothesis has matched the map
 //     well (agreement, known share) on `confirm_scans` consecutive scans, the robot has moved,
@@ -18,7 +13,8 @@
 //     `lost_scans` scans the localiser reports lost and searches globally again (kidnap).
 //
 // The map may grow between scans (a follower keeps applying tiles); the localiser reads it
-// afresh on every scan. It never reads ground truth.
+// afresh on every scan. It never reads ground truth. Diagnostics (the hypotheses, the stages
+// of each global search) go to a LocaliserObserver, not through the API.
 
 #include <cstdint>
 #include <optional>
@@ -26,10 +22,14 @@
 #include <vector>
 
 #include "esfleet/core/es_search.hpp"
+#include "esfleet/core/evidence.hpp"
+#include "esfleet/core/fitness.hpp"
 #include "esfleet/core/geometry.hpp"
+#include "esfleet/core/global_search.hpp"
 #include "esfleet/core/grid_map.hpp"
 #include "esfleet/core/laser_scan.hpp"
 #include "esfleet/core/random.hpp"
+#include "esfleet/core/scan_points.hpp"
 #include "esfleet/core/tracking.hpp"
 
 namespace esfleet {
@@ -42,57 +42,15 @@ enum class LocaliserState : std::uint8_t {
 };
 const char* to_string(LocaliserState s);
 
-enum class GlobalSearch : std::uint8_t {
-  kGrid,  ///< coarse exhaustive scoring, then ES refinement of the best (ours, default)
-  kEs,    ///< the ES alone from a population spread over free space, with restarts (paper)
-};
-
-/// The grid search's coarse ranking (pyramid level `coarse_level`, each cell the maximum of
-/// the cells it covers).
-enum class CoarseScore : std::uint8_t {
-  /// The paper's fitness p_occ * sum of map values (Condition 1). On the blurred level a cell
-  /// counts against p_occ unless one of the cells it covers was only ever hit, so p_occ
-  /// rewards end points near rarely observed cells, and a well-observed corridor whose walls
-  /// grazing beams also cross ranks low (fr079: p_occ 0.53 at a true pose the map agrees with
-  /// 0.96; 609 of 4540 sample positions scored higher).
-  kFitness,
-  /// The sum of map values alone (Condition 2; ours, default since 2026-12-02).
-  kSum,
-  /// Both: the `coarse_keep` best distinct poses by the fitness, then as many by the sum.
-  kBoth,
-};
-
-/// A pose guess: search within `radius` metres and `angle_deg` degrees of it.
-struct PoseHint {
-  Pose2 pose;
-  double radius = 1.0;
-  double angle_deg = 30.0;
-};
-
 struct LocaliserConfig {
   /// The per-scan tracking step, as the leader's SLAM runs it (ES, prediction, fitness; the
   /// follower takes it from the SLAM flags).
   TrackingConfig tracking;
-  GlobalSearch global = GlobalSearch::kGrid;
+  /// The global search (method, sampling, ranking, candidates).
+  GlobalSearchConfig search;
   std::optional<PoseHint> hint;
   /// A hint that yields no declared pose within this many scans widens to the global search.
   int hint_scans = 10;
-
-  // --- global search ---
-  int coarse_level = 3;         ///< pyramid level scored exhaustively (kGrid)
-  double step_xy = 0.0;         ///< sample grid, metres; 0 = 3/4 of a coarse cell (0.3 m)
-  double step_theta_deg = 0.0;  ///< heading step; 0 = a coarse cell at the median range, <= 5 deg
-  int coarse_points = 60;       ///< end points used for coarse scoring (evenly strided)
-  /// How the grid search ranks its coarse poses (see CoarseScore).
-  CoarseScore coarse_score = CoarseScore::kSum;
-  double free_max_value = 0.25;  ///< a sample cell is free when known and hit/(hit+err) <= this
-  int coarse_keep = 300;         ///< distinct coarse poses re-ranked on mid_level
-  int mid_level = 1;             ///< pyramid level of the re-ranking (evidence over a small window)
-  int candidates = 10;           ///< distinct candidates refined by the ES and followed
-  double distinct_xy = 0.5;      ///< candidates closer than this (and distinct_theta) are one
-  double distinct_theta_deg = 10.0;
-  int es_restarts = 20;      ///< kEs: independent ES runs per global search
-  int es_iterations = 3000;  ///< kEs: iterations per run (the population is the ES's mu)
 
   // --- declaring a pose ---
   int confirm_scans = 4;       ///< consecutive good scans of the leading hypothesis
@@ -160,6 +118,31 @@ struct LocaliserStep {
   double cpu_ms = 0.0;         ///< thread CPU time spent on this scan
 };
 
+/// A hypothesis followed while localising, as diagnostics see it.
+struct HypothesisView {
+  std::uint32_t id = 0;  ///< distinct per hypothesis since the localiser was built
+  Pose2 pose;
+  float score = 0.0f;  ///< mean evidence() over the last confirm_scans scans
+  int good_streak = 0;
+  double travel = 0.0;
+  FitnessValue value;  ///< at the last scan
+};
+
+/// Receives a Localiser's diagnostics (logs, the benchmark's traces); every hook defaults to
+/// nothing. Called on the thread running Localiser::process, during the call.
+class LocaliserObserver {
+ public:
+  virtual ~LocaliserObserver() = default;
+  /// Whether to record the stages of each global search for on_search_stages (they hold every
+  /// sample position of a grid search: diagnostics only).
+  virtual bool wants_search_stages() const { return false; }
+  /// After each global search, if wants_search_stages(): its stages (empty for an ES search).
+  virtual void on_search_stages(const SearchStages& /*stages*/) {}
+  /// At the end of every process(): the step and the hypotheses followed (none once tracking).
+  virtual void on_scan(const LocaliserStep& /*step*/,
+                       const std::vector<HypothesisView>& /*hypotheses*/) {}
+};
+
 class Localiser {
  public:
   explicit Localiser(LocaliserConfig config);
@@ -171,38 +154,9 @@ class Localiser {
   const LocaliserConfig& config() const { return config_; }
   /// Forget everything and search globally again (e.g. a new map epoch).
   void reset();
-
-  /// The hypotheses followed while localising (for logs and diagnostics).
-  struct HypothesisView {
-    std::uint32_t id = 0;  ///< distinct per hypothesis since construction (diagnostics)
-    Pose2 pose;
-    float score = 0.0f;  ///< mean evidence() over the last confirm_scans scans
-    int good_streak = 0;
-    double travel = 0.0;
-    FitnessValue value;  ///< at the last scan
-  };
-  std::vector<HypothesisView> hypotheses() const;
-
-  /// The stages of the last grid search (diagnostics, filled only after
-  /// record_search_stages(true)): the distinct coarse poses kept, the same re-ranked at
-  /// mid_level (best first, with their evidence) and the candidates refined (before the ES,
-  /// with their evidence). The ES search (GlobalSearch::kEs) leaves them empty.
-  struct SearchStages {
-    /// Every sample position with its best heading and coarse fitness (before ranking).
-    std::vector<Pose2> samples;
-    std::vector<float> sample_score;
-    std::vector<Pose2> coarse;
-    std::vector<Pose2> ranked;
-    std::vector<float> ranked_evidence;
-    std::vector<Pose2> candidates;
-    std::vector<float> candidate_evidence;
-  };
-  void record_search_stages(bool on) { record_stages_ = on; }
-  /// The grid search's coarse scoring for `points` in `map`: level, strided end points and,
-  /// unless ranking by CoarseScore::kSum, the penalty (an evaluator's `fitness` is then the
-  /// score the sample positions are ranked and recorded by).
-  FitnessOptions coarse_options(const GridMap& map, const ScanPoints& points) const;
-  const SearchStages& last_search() const { return stages_; }
+  /// Diagnostics go to `observer` (nullptr: none; the default). It must outlive its use here.
+  /// Observing changes nothing the localiser computes or draws.
+  void set_observer(LocaliserObserver* observer) { observer_ = observer; }
 
  private:
   struct Hypothesis {
@@ -220,14 +174,10 @@ class Localiser {
     FitnessValue value;
   };
 
-  std::vector<Pose2> global_candidates(const GridMap& map, const ScanPoints& points, bool use_hint,
-                                       GlobalSearch how);
-  std::vector<Pose2> grid_candidates(const GridMap& map, const ScanPoints& points,
-                                     const std::vector<Pose2>& samples, double step_xy,
-                                     double step_theta, double theta0, double theta_span);
-  std::vector<Pose2> es_candidates(const GridMap& map, const ScanPoints& points,
-                                   const std::vector<Pose2>& samples, double theta0,
-                                   double theta_span);
+  /// The global search's candidates (use_hint: around config_.hint, if any), reporting its
+  /// stages to the observer.
+  std::vector<Pose2> search_globally(const GridMap& map, const ScanPoints& points, bool use_hint,
+                                     GlobalSearchMethod how);
   void add_hypotheses(const std::vector<Pose2>& poses, const GridMap& map, const ScanPoints& points,
                       const LaserScan& scan);
   void score_scan(Hypothesis& h, const FitnessValue& v, const Pose2& before, const Pose2& now);
@@ -243,10 +193,12 @@ class Localiser {
                 LocaliserStep& step);
   void track(const GridMap& map, const ScanPoints& points, const LaserScan& scan,
              LocaliserStep& step);
+  std::vector<HypothesisView> hypothesis_views() const;
 
   LocaliserConfig config_;
   EvolutionStrategy es_;
   EvolutionStrategy hypothesis_es_;
+  GlobalSearch search_;
   Rng rng_;
   LocaliserState state_ = LocaliserState::kWaitingForMap;
   std::vector<Hypothesis> pool_;
@@ -255,27 +207,8 @@ class Localiser {
   int searching_scans_ = 0;  ///< scans since localising (re)started
   Hypothesis tracked_;
   int bad_streak_ = 0;
-  bool record_stages_ = false;
-  SearchStages stages_;
+  LocaliserObserver* observer_ = nullptr;
   std::uint32_t next_id_ = 0;
 };
-
-/// The localiser's evidence for a pose: the share of all end points that fall on cells with
-/// hit > 0 (agreement times known share), in [0, 1]. Unlike the fitness it counts end points
-/// in unknown or free space against the pose, which tells look-alike places apart.
-float evidence(const FitnessValue& v);
-/// The share of all end points on known cells without hits (known free space), in [0, 1].
-float contradiction(const FitnessValue& v);
-
-/// The pose of highest evidence() on a grid around `centre`: positions within +-half_xy in
-/// steps of step_xy, headings within +-half_turn_deg in 1-degree steps; among equals the first
-/// in scan order (heading, then y, then x). The localiser's check before declaring a pose, and
-/// the benchmark's re-alignment of reference poses to a map.
-struct EvidencePose {
-  Pose2 pose;
-  float evidence = -1.0f;
-};
-EvidencePose best_evidence_near(const FitnessEvaluator& eval, const Pose2& centre, double half_xy,
-                                double step_xy, int half_turn_deg);
 
 }  // namespace esfleet
