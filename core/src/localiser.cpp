@@ -196,10 +196,8 @@ void Localiser::add_hypotheses(const std::vector<Pose2>& poses, const GridMap& m
   }
 }
 
-void Localiser::localise(const GridMap& map, const ScanPoints& points, const LaserScan& scan,
-                         LocaliserStep& step) {
-  ++searching_scans_;
-  // Follow every hypothesis with the per-scan tracking step.
+void Localiser::follow_hypotheses(const GridMap& map, const ScanPoints& points,
+                                  const LaserScan& scan) {
   for (Hypothesis& h : pool_) {
     const TrackResult t =
         track_scan(config_.tracking, hypothesis_es_, rng_, map, points, scan, h.motion);
@@ -226,8 +224,10 @@ void Localiser::localise(const GridMap& map, const ScanPoints& points, const Las
     if (static_cast<int>(kept.size()) >= config_.max_hypotheses) break;
   }
   pool_ = std::move(kept);
+}
 
-  // Search (again) when there is nothing to follow or nothing has been declared for a while.
+void Localiser::search_if_due(const GridMap& map, const ScanPoints& points, const LaserScan& scan,
+                              LocaliserStep& step) {
   const bool use_hint = config_.hint && searching_scans_ <= config_.hint_scans;
   const bool any_good = std::any_of(pool_.begin(), pool_.end(),
                                     [](const Hypothesis& h) { return h.good_streak > 0; });
@@ -242,88 +242,105 @@ void Localiser::localise(const GridMap& map, const ScanPoints& points, const Las
   } else {
     ++scans_since_search_;
   }
-  step.hypotheses = pool_.size();
-  if (pool_.empty()) return;
+}
+
+bool Localiser::ready(std::size_t i) const {
+  const Hypothesis& c = pool_[i];
+  const bool moved = c.travel >= config_.min_travel || c.turn >= deg_to_rad(config_.min_turn_deg);
+  if (c.good_streak < config_.confirm_scans || !moved || !(c.score > 0.0f)) return false;
+  for (std::size_t j = 0; j < pool_.size(); ++j) {
+    if (j != i && !clear_of(c, pool_[j])) return false;
+  }
+  return true;
+}
+
+std::pair<std::size_t, bool> Localiser::leader() const {
   std::size_t lead = 0;
   for (std::size_t i = 1; i < pool_.size(); ++i) {
     if (pool_[i].score > pool_[lead].score) lead = i;
   }
-  auto ready = [&](std::size_t i) {
-    const Hypothesis& c = pool_[i];
-    const bool moved = c.travel >= config_.min_travel || c.turn >= deg_to_rad(config_.min_turn_deg);
-    if (c.good_streak < config_.confirm_scans || !moved || !(c.score > 0.0f)) return false;
-    for (std::size_t j = 0; j < pool_.size(); ++j) {
-      if (j != i && !clear_of(c, pool_[j])) return false;
-    }
-    return true;
-  };
-  bool go = ready(lead);
-  if (!go && config_.contradiction_factor > 0.0) {
+  if (ready(lead)) return {lead, true};
+  if (config_.contradiction_factor > 0.0) {
     // The contradiction route: another hypothesis may be clear of all the others.
-    for (std::size_t i = 0; i < pool_.size() && !go; ++i) {
-      if (i != lead && contradiction_route(pool_[i]) && ready(i)) {
-        lead = i;
-        go = true;
-      }
+    for (std::size_t i = 0; i < pool_.size(); ++i) {
+      if (i != lead && contradiction_route(pool_[i]) && ready(i)) return {i, true};
     }
   }
+  return {lead, false};
+}
+
+bool Localiser::moved_by_local_check(const FitnessEvaluator& fine, std::size_t lead,
+                                     LocaliserStep& step) {
+  // Is the leader the best explanation of this scan nearby? Along a corridor the fitness
+  // optimum can sit a few decimetres from where the map fits the scan best (CSAIL: evidence
+  // 0.98 at the tracked pose, 1.00 0.34 m further). If a pose in the window explains the
+  // scan better, the hypothesis moves there and must confirm again.
+  Hypothesis& lead_h = pool_[lead];
+  const Pose2 c = lead_h.motion.last.pose;
+  const float lead_e = evidence(fine.evaluate(c));
+  const auto [best, best_e] =
+      best_evidence_near(fine, c, kLocalCheckXy, kLocalCheckStep, kLocalCheckTurns);
+  if (best_e > lead_e + kLocalCheckMargin &&
+      std::hypot(best.x - c.x, best.y - c.y) > kLocalCheckMove) {
+    lead_h.motion.last.pose = best;
+    lead_h.motion.previous.reset();
+    lead_h.good_streak = 1;
+    step.pose = best;
+    return true;
+  }
+  return false;
+}
+
+bool Localiser::verified(const GridMap& map, const ScanPoints& points, const LaserScan& scan,
+                         std::size_t lead, const FitnessEvaluator& fine, LocaliserStep& step) {
+  // This scan's global search just added candidates: let them be followed first.
+  if (step.global_search) return false;
+  // Last check before declaring: a fresh global search on this scan must not find a
+  // distinct pose that explains it nearly as well (a place the candidates or a wrong hint
+  // missed). Always the global grid search, whatever the hint or the search mode: it is
+  // the safety net against a wrong confident pose.
   const Hypothesis& h = pool_[lead];
-  step.pose = h.motion.last.pose;
-  step.value = h.value;
-  step.score = h.score;
+  const Pose2 lead_pose = h.motion.last.pose;
+  const float lead_now = evidence(h.value);
+  const bool by_contradiction = contradiction_route(h);
+  const float lead_contradiction = contradiction(h.value);
+  const std::vector<Pose2> fresh =
+      search_globally(map, points, /*use_hint=*/false, GlobalSearchMethod::kGrid);
+  step.global_search = true;
+  scans_since_search_ = 0;
+  std::vector<Pose2> rivals;
+  for (const Pose2& p : fresh) {
+    // A rival is anything outside the tolerance of a right pose: a look-alike 0.8 m and
+    // 10 deg away (CSAIL) must stop the declaration as much as one across the map.
+    if (same_place(p, lead_pose, kRivalXy, kRivalTheta)) continue;
+    const FitnessValue v = fine.evaluate(p);
+    if (evidence(v) < static_cast<float>(config_.verify_ambiguity) * lead_now) continue;
+    if (by_contradiction && contradicted(contradiction(v), lead_contradiction)) continue;
+    rivals.push_back(p);
+  }
+  if (rivals.empty()) return true;
+  add_hypotheses(rivals, map, points, scan);  // may reallocate pool_: h is not used after
+  step.hypotheses = pool_.size();
+  return false;
+}
+
+void Localiser::localise(const GridMap& map, const ScanPoints& points, const LaserScan& scan,
+                         LocaliserStep& step) {
+  ++searching_scans_;
+  follow_hypotheses(map, points, scan);
+  // Search (again) when there is nothing to follow or nothing has been declared for a while.
+  search_if_due(map, points, scan, step);
+  step.hypotheses = pool_.size();
+  if (pool_.empty()) return;
+  const auto [lead, go] = leader();
+  step.pose = pool_[lead].motion.last.pose;
+  step.value = pool_[lead].value;
+  step.score = pool_[lead].score;
   if (!go) return;
   const FitnessEvaluator fine = fine_evaluator(map, points);
-  if (config_.local_check) {
-    // Is the leader the best explanation of this scan nearby? Along a corridor the fitness
-    // optimum can sit a few decimetres from where the map fits the scan best (CSAIL: evidence
-    // 0.98 at the tracked pose, 1.00 0.34 m further). If a pose in the window explains the
-    // scan better, the hypothesis moves there and must confirm again.
-    Hypothesis& lead_h = pool_[lead];
-    const Pose2 c = lead_h.motion.last.pose;
-    const float lead_e = evidence(fine.evaluate(c));
-    const auto [best, best_e] =
-        best_evidence_near(fine, c, kLocalCheckXy, kLocalCheckStep, kLocalCheckTurns);
-    if (best_e > lead_e + kLocalCheckMargin &&
-        std::hypot(best.x - c.x, best.y - c.y) > kLocalCheckMove) {
-      lead_h.motion.last.pose = best;
-      lead_h.motion.previous.reset();
-      lead_h.good_streak = 1;
-      step.pose = best;
-      return;
-    }
-  }
-  if (config_.verify) {
-    // This scan's global search just added candidates: let them be followed first.
-    if (step.global_search) return;
-    // Last check before declaring: a fresh global search on this scan must not find a
-    // distinct pose that explains it nearly as well (a place the candidates or a wrong hint
-    // missed). Always the global grid search, whatever the hint or the search mode: it is
-    // the safety net against a wrong confident pose.
-    const Pose2 lead_pose = h.motion.last.pose;
-    const float lead_now = evidence(h.value);
-    const bool by_contradiction = contradiction_route(h);
-    const float lead_contradiction = contradiction(h.value);
-    const std::vector<Pose2> fresh =
-        search_globally(map, points, /*use_hint=*/false, GlobalSearchMethod::kGrid);
-    step.global_search = true;
-    scans_since_search_ = 0;
-    std::vector<Pose2> rivals;
-    for (const Pose2& p : fresh) {
-      // A rival is anything outside the tolerance of a right pose: a look-alike 0.8 m and
-      // 10 deg away (CSAIL) must stop the declaration as much as one across the map.
-      if (same_place(p, lead_pose, kRivalXy, kRivalTheta)) continue;
-      const FitnessValue v = fine.evaluate(p);
-      if (evidence(v) < static_cast<float>(config_.verify_ambiguity) * lead_now) continue;
-      if (by_contradiction && contradicted(contradiction(v), lead_contradiction)) continue;
-      rivals.push_back(p);
-    }
-    if (!rivals.empty()) {
-      add_hypotheses(rivals, map, points, scan);  // may reallocate pool_: h is not used after
-      step.hypotheses = pool_.size();
-      return;
-    }
-  }
-  tracked_ = h;
+  if (config_.local_check && moved_by_local_check(fine, lead, step)) return;
+  if (config_.verify && !verified(map, points, scan, lead, fine, step)) return;
+  tracked_ = pool_[lead];
   pool_.clear();
   bad_streak_ = 0;
   state_ = LocaliserState::kTracking;

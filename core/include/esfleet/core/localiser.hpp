@@ -19,6 +19,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "esfleet/core/es_search.hpp"
@@ -189,8 +190,29 @@ class Localiser {
   bool contradicted(float rival, float own) const;
   /// The full-resolution evaluator hypotheses are scored with (the SLAM's fitness options).
   FitnessEvaluator fine_evaluator(const GridMap& map, const ScanPoints& points) const;
+  /// One scan while localising: follow the hypotheses, search if due, declare the leader if
+  /// the rules allow (declared: state kTracking).
   void localise(const GridMap& map, const ScanPoints& points, const LaserScan& scan,
                 LocaliserStep& step);
+  /// Tracks every hypothesis one scan on, then merges those that converged onto one pose and
+  /// drops the clearly worse (prune_ratio, max_hypotheses).
+  void follow_hypotheses(const GridMap& map, const ScanPoints& points, const LaserScan& scan);
+  /// Searches globally when nothing is followed, or nothing matched well for research_wait_
+  /// scans (which then doubles, up to research_every_max); sets step.global_search.
+  void search_if_due(const GridMap& map, const ScanPoints& points, const LaserScan& scan,
+                     LocaliserStep& step);
+  /// Hypothesis i may be declared: confirm_scans good scans, moved, clear of every other.
+  bool ready(std::size_t i) const;
+  /// The hypothesis to report (best score, or another one the contradiction route makes
+  /// ready) and whether it may be declared. The pool must not be empty.
+  std::pair<std::size_t, bool> leader() const;
+  /// The local check before declaring: true when a clearly better pose nearby took the
+  /// leader over (it must confirm again).
+  bool moved_by_local_check(const FitnessEvaluator& fine, std::size_t lead, LocaliserStep& step);
+  /// The final check before declaring: true when a fresh global search finds no rival of the
+  /// leader; rivals join the pool.
+  bool verified(const GridMap& map, const ScanPoints& points, const LaserScan& scan,
+                std::size_t lead, const FitnessEvaluator& fine, LocaliserStep& step);
   void track(const GridMap& map, const ScanPoints& points, const LaserScan& scan,
              LocaliserStep& step);
   std::vector<HypothesisView> hypothesis_views() const;
