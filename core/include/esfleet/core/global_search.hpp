@@ -34,10 +34,9 @@ enum class CoarseScore : std::uint8_t {
   /// The paper's fitness p_occ * sum of map values (Condition 1). On the blurred level a cell
   /// counts against p_occ unless one of the cells it covers was only ever hit, so p_occ
   /// rewards end points near rarely observed cells, and a well-observed corridor whose walls
-  /// grazing beams also cross ranks low (fr079: p_occ 0.53 at a true pose the map agrees with
-  /// 0.96; 609 of 4540 sample positions scored higher).
+  /// grazing beams also cross ranks low (docs/localisation.md, "Why these defaults").
   kFitness,
-  /// The sum of map values alone (Condition 2; ours, default since 2026-12-02).
+  /// The sum of map values alone (Condition 2; ours, the default).
   kSum,
   /// Both: the `coarse_keep` best distinct poses by the fitness, then as many by the sum.
   kBoth,

@@ -43,6 +43,8 @@ enum class LocaliserState : std::uint8_t {
 };
 const char* to_string(LocaliserState s);
 
+/// The defaults are measured choices: docs/localisation.md ("Why these defaults") has the
+/// measurements behind them.
 struct LocaliserConfig {
   /// The per-scan tracking step, as the leader's SLAM runs it (ES, prediction, fitness; the
   /// follower takes it from the SLAM flags).
@@ -59,14 +61,14 @@ struct LocaliserConfig {
   double min_known = 0.5;      ///< ... and this share of end points on known cells
   double min_travel = 0.3;     ///< metres moved (or min_turn turned) since the hypothesis began
   double min_turn_deg = 30.0;
-  /// Runner-up score / leader's score must stay below this. 0.75 (was 0.85): on 300 fr079 (b)
-  /// starts 0 % wrong against 1.3 %, 90 % success against 93 % (docs/localisation.md).
+  /// Runner-up's mean evidence / the leader's must stay below this, in (0, 1] (or the
+  /// contradiction route clears the rival).
   double max_ambiguity = 0.75;
   int max_hypotheses = 20;  ///< pool size
   int research_every = 5;   ///< scans with no well-matching hypothesis between global searches
   /// Each global search after which still no hypothesis matches well doubles the wait before
-  /// the next, up to this many scans; a well-matching hypothesis resets it to research_every
-  /// (= research_every: a search every research_every scans, the rule before 2026-12-02). A
+  /// the next, up to this many scans (>= research_every); a well-matching hypothesis resets it
+  /// to research_every. = research_every: a search every research_every scans, no backoff. A
   /// follower where the map knows little stops spending a global search every second.
   int research_every_max = 20;
   /// Before declaring, search globally on the current scan once more (always kGrid, never
@@ -74,20 +76,19 @@ struct LocaliserConfig {
   /// joins the hypotheses and the declaration waits.
   bool verify = true;
   /// The final check's rival: a pose whose evidence on this scan is at least this share of the
-  /// leader's. One scan is noisier than max_ambiguity's mean over several, so the bar is
-  /// higher (0.75 for both held fr079 (b) poses back to 2.5 s median CPU on one draw).
+  /// leader's, in (0, 1]. One scan is noisier than max_ambiguity's mean over several, so the
+  /// bar is higher.
   double verify_ambiguity = 0.85;
   /// Before declaring, probe +-0.5 m / +-3 deg around the leader: a pose that explains the scan
   /// clearly better (evidence) takes the hypothesis over, which must then confirm again.
   bool local_check = true;
-  /// The contradiction route (0 = off, the rule before 2026-12-01): a hypothesis is also
+  /// The contradiction route (0 = off: evidence ratio only): a hypothesis is also
   /// clear of a rival whose mean share of end points on known free cells is at least this
   /// factor times its own plus contradiction_margin, if its own mean agreement and known share
   /// reach the minima below and it matched well on contradiction_min_streak scans in a row; the
   /// final check then counts a fresh pose as a rival only if it is not clear of it in the same
   /// way. Where the map knows a place partly, end points in unknown cells cost the true pose
-  /// evidence; a look-alike place fully known puts many of its end points on free cells. fr079
-  /// (b), three draws of 100 starts: 93.7 % / 0.3 % wrong against 90.3 / 0 (docs/localisation.md).
+  /// evidence; a look-alike place fully known puts many of its end points on free cells.
   double contradiction_factor = 2.0;
   double contradiction_margin = 0.1;
   double contradiction_min_agreement = 0.85;
