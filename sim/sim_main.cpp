@@ -17,7 +17,6 @@
 #include <chrono>
 #include <cmath>
 #include <csignal>
-#include <ctime>
 #include <filesystem>
 #include <memory>
 #include <stdexcept>
@@ -26,6 +25,7 @@
 #include <vector>
 
 #include "app/dds_flags.hpp"
+#include "esfleet/core/clock.hpp"
 #include "esfleet/dds/map_convert.hpp"
 #include "esfleet/dds/node.hpp"
 #include "esfleet/dds/writer.hpp"
@@ -74,12 +74,6 @@ struct SimOptions {
     if (!(wait_timeout >= 0.0)) throw std::invalid_argument("--wait-timeout must be >= 0");
   }
 };
-
-double thread_cpu_seconds() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) + static_cast<double>(ts.tv_nsec) * 1e-9;
-}
 
 /// User + system CPU of the whole process (DDS threads included), seconds.
 double process_cpu_seconds() {

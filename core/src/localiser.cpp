@@ -2,9 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
-#include <ctime>
 #include <stdexcept>
 
+#include "esfleet/core/clock.hpp"
 #include "esfleet/core/fitness.hpp"
 #include "esfleet/core/scan_points.hpp"
 
@@ -60,12 +60,6 @@ void LocaliserConfig::validate() const {
 }
 
 namespace {
-
-double thread_cpu_ms() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) * 1e3 + static_cast<double>(ts.tv_nsec) * 1e-6;
-}
 
 /// Poses closer than this are the same for the final check before declaring (the benchmark's
 /// tolerance for a right pose is 0.3 m and 5 deg).
@@ -371,7 +365,7 @@ void Localiser::track(const GridMap& map, const ScanPoints& points, const LaserS
 }
 
 LocaliserStep Localiser::process(const GridMap& map, const LaserScan& scan) {
-  const double t0 = thread_cpu_ms();
+  const double t0 = thread_cpu_seconds();
   LocaliserStep step;
   if (map.tile_count() == 0) {
     state_ = LocaliserState::kWaitingForMap;
@@ -389,7 +383,7 @@ LocaliserStep Localiser::process(const GridMap& map, const LaserScan& scan) {
     }
   }
   step.state = state_;
-  step.cpu_ms = thread_cpu_ms() - t0;
+  step.cpu_ms = (thread_cpu_seconds() - t0) * 1e3;
   if (observer_ != nullptr) observer_->on_scan(step, hypothesis_views());
   return step;
 }
