@@ -78,21 +78,6 @@ struct ReplayOptions {
   }
 };
 
-/// The scans of the log (the first max_scans if > 0). Throws LogError naming file and line.
-std::vector<esfleet::LaserScan> read_log(const std::string& path, std::size_t max_scans) {
-  std::vector<esfleet::LaserScan> scans;
-  esfleet::CarmenReader reader(path);
-  while (auto scan = reader.next_scan()) {
-    scans.push_back(std::move(*scan));
-    if (max_scans > 0 && scans.size() >= max_scans) break;
-    if (g_stop.load()) break;
-  }
-  if (scans.empty()) {
-    throw esfleet::LogError(path, 0, "no laser scans (FLASER/ROBOTLASER1) in file");
-  }
-  return scans;
-}
-
 /// Waits until every matched reader acknowledged every scan written, checking the stop flag;
 /// warns once if that takes long. Returns the seconds waited.
 double wait_for_acks(const esfleet::dds::ScanWriter& writer, std::uint32_t seq) {
@@ -164,7 +149,7 @@ int main(int argc, char** argv) {
 
   std::vector<LaserScan> scans;
   try {
-    scans = read_log(o.log, o.max_scans);
+    scans = read_carmen_log(o.log, {}, o.max_scans, &g_stop);
     if (o.first_scan >= scans.size()) {
       throw std::invalid_argument("--first-scan " + std::to_string(o.first_scan) + ": " + o.log +
                                   " has only " + std::to_string(scans.size()) + " scans" +

@@ -430,36 +430,38 @@ CarmenReader::CarmenReader(CarmenReader&&) noexcept = default;
 CarmenReader& CarmenReader::operator=(CarmenReader&&) noexcept = default;
 
 std::optional<LaserScan> CarmenReader::next_scan() { return impl_->next_scan(); }
+const std::string& CarmenReader::name() const { return impl_->path; }
 const std::map<std::string, std::string>& CarmenReader::params() const { return impl_->params; }
 std::size_t CarmenReader::line_number() const { return impl_->line_number; }
 std::size_t CarmenReader::skipped_lines() const { return impl_->skipped_lines; }
 std::size_t CarmenReader::odom_messages() const { return impl_->odom_messages; }
 bool CarmenReader::saw_corrected_poses() const { return impl_->saw_corrected_poses; }
 
-namespace {
-std::vector<LaserScan> read_all(CarmenReader& reader, const std::string& name,
-                                std::size_t max_scans) {
+std::vector<LaserScan> read_scans(CarmenReader& reader, std::size_t max_scans,
+                                  const std::atomic<bool>* stop) {
   std::vector<LaserScan> scans;
   while (max_scans == 0 || scans.size() < max_scans) {
     std::optional<LaserScan> scan = reader.next_scan();
     if (!scan) break;
     scans.push_back(std::move(*scan));
+    if (stop != nullptr && stop->load()) break;
   }
-  if (scans.empty()) throw LogError(name, 0, "no laser scans (FLASER/ROBOTLASER1) in file");
+  if (scans.empty()) {
+    throw LogError(reader.name(), 0, "no laser scans (FLASER/ROBOTLASER1) in file");
+  }
   return scans;
 }
-}  // namespace
 
 std::vector<LaserScan> read_carmen_log(const std::string& path, CarmenReaderOptions options,
-                                       std::size_t max_scans) {
+                                       std::size_t max_scans, const std::atomic<bool>* stop) {
   CarmenReader reader(path, options);
-  return read_all(reader, path, max_scans);
+  return read_scans(reader, max_scans, stop);
 }
 
 std::vector<LaserScan> read_carmen_text(std::string text, const std::string& name,
                                         CarmenReaderOptions options, std::size_t max_scans) {
   CarmenReader reader = CarmenReader::from_text(std::move(text), name, options);
-  return read_all(reader, name, max_scans);
+  return read_scans(reader, max_scans);
 }
 
 }  // namespace esfleet
