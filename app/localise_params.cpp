@@ -8,29 +8,32 @@
 namespace esfleet::app {
 
 void add_localise_params(ParamTable& t, LocaliserConfig* c) {
-  t.add_enum<GlobalSearch>(
-      "localise_search", &c->global, {{"grid", GlobalSearch::kGrid}, {"es", GlobalSearch::kEs}},
+  t.add_enum<GlobalSearchMethod>(
+      "localise_search", &c->search.method,
+      {{"grid", GlobalSearchMethod::kGrid}, {"es", GlobalSearchMethod::kEs}},
       "global search: grid = coarse exhaustive scoring then ES refinement (ours); es = the ES "
       "alone from a population spread over free space, with restarts (the paper's way)");
-  t.add_int("localise_coarse_level", &c->coarse_level,
+  t.add_int("localise_coarse_level", &c->search.coarse_level,
             "map pyramid level scored exhaustively by the grid search (3 = 0.4 m cells)");
-  t.add_double("localise_step_xy", &c->step_xy,
+  t.add_double("localise_step_xy", &c->search.step_xy,
                "grid search position step, metres (0 = 3/4 of a coarse cell)");
-  t.add_double("localise_step_theta", &c->step_theta_deg,
+  t.add_double("localise_step_theta", &c->search.step_theta_deg,
                "grid search heading step, degrees (0 = a coarse cell at the median range)");
-  t.add_int("localise_coarse_points", &c->coarse_points, "end points used for coarse scoring");
+  t.add_int("localise_coarse_points", &c->search.coarse_points,
+            "end points used for coarse scoring");
   t.add_enum<CoarseScore>(
-      "localise_coarse_score", &c->coarse_score,
+      "localise_coarse_score", &c->search.coarse_score,
       {{"fitness", CoarseScore::kFitness},
        {"sum", CoarseScore::kSum},
        {"both", CoarseScore::kBoth}},
       "grid search: rank the coarse poses by the paper's fitness, by the sum of map values "
       "(without the penalty p_occ), or keep the best by each");
-  t.add_double("localise_free_max", &c->free_max_value,
+  t.add_double("localise_free_max", &c->search.free_max_value,
                "a cell is free space (a start candidate) when hit/(hit+err) is at most this");
-  t.add_int("localise_candidates", &c->candidates, "distinct candidates kept per global search");
-  t.add_int("localise_es_restarts", &c->es_restarts, "es search: ES runs per global search");
-  t.add_int("localise_es_iterations", &c->es_iterations, "es search: iterations per ES run");
+  t.add_int("localise_candidates", &c->search.candidates,
+            "distinct candidates kept per global search");
+  t.add_int("localise_es_restarts", &c->search.es_restarts, "es search: ES runs per global search");
+  t.add_int("localise_es_iterations", &c->search.es_iterations, "es search: iterations per ES run");
   t.add_int("localise_confirm_scans", &c->confirm_scans,
             "consecutive well-matching scans before a pose is declared");
   t.add_double("localise_min_agreement", &c->min_agreement,

@@ -19,20 +19,14 @@ constexpr std::chrono::milliseconds kPoll{100};
 std::vector<LaserScan> read_log(const std::string& path, const CarmenReaderOptions& options,
                                 std::size_t max_scans, bool use_odometry,
                                 const std::atomic<bool>& stop) {
-  std::vector<LaserScan> scans;
   CarmenReader reader(path, options);
-  while (auto scan = reader.next_scan()) {
-    scans.push_back(std::move(*scan));
-    if (max_scans > 0 && scans.size() >= max_scans) break;
-    if (stop.load()) break;
-  }
+  std::vector<LaserScan> scans = read_scans(reader, max_scans, &stop);
   if (reader.saw_corrected_poses() && use_odometry) {
     spdlog::warn(
         "{} is a GMapping-corrected log: its odometry fields are corrected poses, so "
         "--odometry on makes the result meaningless. Run it laser-only.",
         path);
   }
-  if (scans.empty()) throw LogError(path, 0, "no laser scans (FLASER/ROBOTLASER1) in file");
   return scans;
 }
 

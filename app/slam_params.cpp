@@ -13,43 +13,47 @@ void add_slam_params(ParamTable& t, SlamConfig* s, CarmenReaderOptions* r) {
   t.add_double("no_return_clear_range", &s->update.no_return_clear_range,
                "no-return beams clear cells up to this range, metres (0 = not at all)");
   // ES (paper Eq. 9, Table 2).
-  t.add_int("mu", &s->es.mu, "ES parents");
-  t.add_int("iterations", &s->es.iterations, "ES iterations T per scan (one child each)");
-  t.add_double("alpha_xy", &s->es.alpha_xy, "mutation coefficient alpha_1 = alpha_2, cm");
-  t.add_double("alpha_theta", &s->es.alpha_theta, "mutation coefficient alpha_3, degrees");
-  t.add_double("beta", &s->es.beta, "mutation offset beta (cm for x, y; degrees for theta)");
-  t.add_switch("penalty", &s->use_penalty,
+  t.add_int("mu", &s->tracking.es.mu, "ES parents");
+  t.add_int("iterations", &s->tracking.es.iterations, "ES iterations T per scan (one child each)");
+  t.add_double("alpha_xy", &s->tracking.es.alpha_xy, "mutation coefficient alpha_1 = alpha_2, cm");
+  t.add_double("alpha_theta", &s->tracking.es.alpha_theta, "mutation coefficient alpha_3, degrees");
+  t.add_double("beta", &s->tracking.es.beta,
+               "mutation offset beta (cm for x, y; degrees for theta)");
+  t.add_switch("penalty", &s->tracking.use_penalty,
                "fitness with the penalty p_occ (paper Condition 1); off = Condition 2");
   // Pipeline.
-  t.add_switch("odometry", &s->use_odometry, "predict with the log's odometry increments");
-  t.add_enum<MotionPrediction>("prediction", &s->prediction,
+  t.add_switch("odometry", &s->tracking.use_odometry, "predict with the log's odometry increments");
+  t.add_enum<MotionPrediction>("prediction", &s->tracking.prediction,
                                {{"previous", MotionPrediction::kPreviousPose},
                                 {"constant-velocity", MotionPrediction::kConstantVelocity}},
                                "pose prediction without odometry");
-  t.add_float("min_range", &s->min_range, "ignore beams shorter than this, metres");
-  t.add_float("max_range", &s->max_range, "ignore beams at or beyond this, metres (0 = all)");
-  t.add_double("init_sigma_xy", &s->init_sigma_xy,
+  t.add_float("min_range", &s->tracking.min_range, "ignore beams shorter than this, metres");
+  t.add_float("max_range", &s->tracking.max_range,
+              "ignore beams at or beyond this, metres (0 = all)");
+  t.add_double("init_sigma_xy", &s->tracking.init_sigma_xy,
                "initial population spread around the prediction, metres");
-  t.add_double("init_sigma_theta", &s->init_sigma_theta_deg,
+  t.add_double("init_sigma_theta", &s->tracking.init_sigma_theta_deg,
                "initial population spread around the prediction, degrees");
   t.add_u64("seed", &s->seed, "random seed of the ES (same input + seed = same output)");
   // Beyond the paper.
-  t.add_switch("motion_hypotheses", &s->motion_hypotheses,
+  t.add_switch("motion_hypotheses", &s->tracking.motion_hypotheses,
                "put every motion hypothesis (previous pose, constant velocity, odometry) into "
                "the initial population");
-  t.add_switch("turn_hypotheses", &s->turn_hypotheses,
+  t.add_switch("turn_hypotheses", &s->tracking.turn_hypotheses,
                "laser only: also hypotheses turning +-1 and +-2 times the last turn");
-  t.add_enum<Interpolation>("interpolation", &s->interpolation,
+  t.add_enum<Interpolation>("interpolation", &s->tracking.interpolation,
                             {{"none", Interpolation::kNone},
                              {"polish", Interpolation::kPolish},
                              {"all", Interpolation::kAll}},
                             "bilinear sub-cell map values in the fitness: nowhere, in the final "
                             "polish, or also in the ES");
-  t.add_switch("refine", &s->refine, "polish the ES result with a deterministic pattern search");
-  t.add_double("prior_sigma_xy", &s->prior_sigma_xy, "motion prior width, metres (0 = no prior)");
-  t.add_double("prior_sigma_theta", &s->prior_sigma_theta_deg,
+  t.add_switch("refine", &s->tracking.refine,
+               "polish the ES result with a deterministic pattern search");
+  t.add_double("prior_sigma_xy", &s->tracking.prior_sigma_xy,
+               "motion prior width, metres (0 = no prior)");
+  t.add_double("prior_sigma_theta", &s->tracking.prior_sigma_theta_deg,
                "motion prior width, degrees (0 = no prior)");
-  t.add_switch("prior_on_stop", &s->prior_on_stop,
+  t.add_switch("prior_on_stop", &s->tracking.prior_on_stop,
                "laser only: the prior also favours the previous pose (a stop)");
   t.add_double("insert_min_travel", &s->insert_min_travel,
                "insert a scan once the robot moved this far since the last one, metres (0 and "

@@ -6,6 +6,7 @@
 #include "app/param_table.hpp"
 #include "esfleet/core/carmen_reader.hpp"
 #include "esfleet/core/localiser.hpp"
+#include "esfleet/core/slam.hpp"
 
 namespace esfleet::bench {
 
@@ -32,6 +33,9 @@ struct LocaliseBenchOptions {
   /// The leader's use of odometry: "same" as the followers' (--odometry), "on" or "off" (a
   /// laser-only map with followers that read their odometry, or the other way round).
   std::string leader_odometry = "same";
+  /// The leader's SLAM (the SLAM flags); the followers track with its tracking part.
+  SlamConfig slam;
+  /// The followers' localiser; its tracking part is copied from `slam` once the flags are read.
   LocaliserConfig config;
   CarmenReaderOptions reader;
   app::ParamTable params;

@@ -6,7 +6,7 @@
 
 #include "app/slam_params.hpp"
 #include "app/summary.hpp"
-#include "esfleet/core/map_io.hpp"
+#include "esfleet/core/file_io.hpp"
 
 namespace esfleet::bench {
 
@@ -54,7 +54,7 @@ RunFigures run_config(const SlamConfig& config, const std::vector<LaserScan>& sc
   f.update = app::summarize(update);
   f.loop = app::summarize(loop);
   f.total = app::summarize(total);
-  const double evals = static_cast<double>(config.es.mu + config.es.iterations);
+  const double evals = static_cast<double>(config.tracking.es.mu + config.tracking.es.iterations);
   f.evaluations_per_s = f.search.median > 0 ? evals / (f.search.median * 1e-3) : 0.0;
   return f;
 }

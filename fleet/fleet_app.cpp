@@ -9,7 +9,8 @@
 
 #include "app/program.hpp"
 #include "child_args.hpp"
-#include "esfleet/core/map_io.hpp"
+#include "esfleet/core/file_io.hpp"
+#include "esfleet/core/ros_map_reader.hpp"
 
 namespace esfleet::fleet {
 

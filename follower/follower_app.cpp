@@ -8,7 +8,9 @@
 
 #include "app/program.hpp"
 #include "app/summary.hpp"
-#include "esfleet/core/map_io.hpp"
+#include "esfleet/core/file_io.hpp"
+#include "esfleet/core/map_png.hpp"
+#include "esfleet/core/ros_map_writer.hpp"
 #include "esfleet/core/tile_codec.hpp"
 #include "esfleet/core/trajectory_io.hpp"
 #include "esfleet/dds/to_msg.hpp"
@@ -25,7 +27,7 @@ constexpr double kNoMapWarnS = 10.0;
 
 GridMapConfig local_map_config(const LocaliserConfig& c) {
   GridMapConfig local;
-  local.pyramid_levels = std::max(c.coarse_level, c.mid_level);
+  local.pyramid_levels = std::max(c.search.coarse_level, c.search.mid_level);
   return local;
 }
 
@@ -42,7 +44,7 @@ FollowerApp::FollowerApp(FollowerOptions options, const std::atomic<bool>& stop)
   if (!o_.log.empty()) {
     app::setup_step("", [&] {
       std::vector<LaserScan> scans =
-          app::read_log(o_.log, o_.reader, o_.max_scans, o_.localiser.slam.use_odometry, stop_);
+          app::read_log(o_.log, o_.reader, o_.max_scans, o_.localiser.tracking.use_odometry, stop_);
       if (o_.first_scan >= scans.size()) {
         throw std::invalid_argument("--first-scan " + std::to_string(o_.first_scan) + ": " +
                                     o_.log + " has only " + std::to_string(scans.size()) +

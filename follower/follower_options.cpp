@@ -70,7 +70,7 @@ void finish_follower_options(FollowerOptions& o, app::ParamTable& params) {
   params.apply();
   o.parameter_changes = params.describe_changes();
   if (!o.hint.empty()) o.localiser.hint = app::parse_hint(o.hint);
-  o.localiser.slam = o.slam;
+  o.localiser.tracking = o.slam.tracking;
   o.localiser.seed = o.slam.seed;
   o.validate();
 }

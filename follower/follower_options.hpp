@@ -13,6 +13,7 @@
 #include "app/param_table.hpp"
 #include "esfleet/core/carmen_reader.hpp"
 #include "esfleet/core/localiser.hpp"
+#include "esfleet/core/slam.hpp"
 
 namespace esfleet::follower {
 
@@ -44,7 +45,7 @@ struct FollowerOptions {
   // --- localisation ---
   std::string hint;  ///< x,y,theta_deg[,radius_m[,angle_deg]]; empty = global search
   /// The tracking parameters come from a whole SLAM configuration (same flags as the leader);
-  /// finish_follower_options copies them into `localiser`.
+  /// finish_follower_options copies its tracking part and seed into `localiser`.
   SlamConfig slam;
   LocaliserConfig localiser;
   CarmenReaderOptions reader;

@@ -2,6 +2,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include "esfleet/core/clock.hpp"
 #include "esfleet/dds/from_msg.hpp"
 #include "esfleet/dds/to_msg.hpp"
 
@@ -93,7 +94,7 @@ void MapSubscriber::apply_tile(const mapshare::TileMessage& t, const std::string
   switch (outcome) {
     case Applied::kApplied:
       stats_.latency_ms.push_back(
-          static_cast<double>(dds::realtime_ns() - static_cast<std::int64_t>(t.stamp_ns)) / 1e6);
+          static_cast<double>(realtime_ns() - static_cast<std::int64_t>(t.stamp_ns)) / 1e6);
       break;
     case Applied::kStale:
       // An equal version is normal (the leader resends a tile whole at the version a delta

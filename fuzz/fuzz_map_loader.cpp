@@ -16,7 +16,7 @@
 
 #include <zlib.h>
 
-#include "esfleet/core/map_io.hpp"
+#include "esfleet/core/ros_map_reader.hpp"
 #include "fuzz_check.hpp"
 
 using esfleet::fuzz::check;

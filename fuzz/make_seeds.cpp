@@ -18,8 +18,9 @@
 #include <vector>
 
 #include "esfleet/core/carmen_reader.hpp"
-#include "esfleet/core/map_io.hpp"
+#include "esfleet/core/map_png.hpp"
 #include "esfleet/core/map_update.hpp"
+#include "esfleet/core/ros_map_writer.hpp"
 #include "esfleet/core/scan_points.hpp"
 #include "esfleet/dds/to_msg.hpp"
 #include "esfleet/mapshare/tile_sender.hpp"

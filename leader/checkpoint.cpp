@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "app/summary.hpp"
-#include "esfleet/core/map_io.hpp"
+#include "esfleet/core/file_io.hpp"
 #include "esfleet/core/slam_snapshot.hpp"
 
 namespace esfleet::leader {

@@ -8,6 +8,7 @@
 
 #include "app/program.hpp"
 #include "app/summary.hpp"
+#include "esfleet/core/clock.hpp"
 #include "esfleet/dds/to_msg.hpp"
 
 namespace esfleet::leader {
@@ -117,7 +118,7 @@ void LeaderApp::resume_checkpoint() {
 void LeaderApp::read_log() {
   app::setup_step("", [&] {
     std::vector<LaserScan> scans =
-        app::read_log(o_.log, o_.reader, o_.max_scans, o_.slam.use_odometry, stop_);
+        app::read_log(o_.log, o_.reader, o_.max_scans, o_.slam.tracking.use_odometry, stop_);
     if (resumed_) {
       const std::size_t skip = resumed_->info.scans;
       if (skip > scans.size()) {
@@ -139,7 +140,7 @@ void LeaderApp::read_log() {
 
 void LeaderApp::open_dds() {
   if (!o_.map_id) o_.map_id = "map";
-  if (!o_.epoch) o_.epoch = static_cast<std::uint32_t>(dds::realtime_ns() / 1'000'000'000);
+  if (!o_.epoch) o_.epoch = static_cast<std::uint32_t>(realtime_ns() / 1'000'000'000);
   app::setup_step("DDS", [&] {
     node_ = std::make_unique<dds::Node>(
         dds::NodeOptions{o_.domain, o_.profile, "esfleet-leader", o_.secure});

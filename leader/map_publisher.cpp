@@ -1,5 +1,6 @@
 #include "map_publisher.hpp"
 
+#include "esfleet/core/clock.hpp"
 #include "esfleet/dds/to_msg.hpp"
 
 namespace esfleet::leader {
@@ -20,7 +21,7 @@ void MapPublisher::publish(GridMap& map, const TimedPose& pose, float fitness, b
   const int readers = tiles_.matched_readers();
   const bool joined = readers > tile_readers_;
   tile_readers_ = readers;
-  const auto now = static_cast<std::uint64_t>(dds::realtime_ns());
+  const auto now = static_cast<std::uint64_t>(realtime_ns());
   mapshare::Publication out =
       sender_.publish(map, pose.stamp, complete, joined, scans, params_json, now);
   for (mapshare::TileMessage& t : out.tiles) {

@@ -6,7 +6,9 @@
 #include <filesystem>
 
 #include "app/summary.hpp"
-#include "esfleet/core/map_io.hpp"
+#include "esfleet/core/file_io.hpp"
+#include "esfleet/core/map_png.hpp"
+#include "esfleet/core/ros_map_writer.hpp"
 #include "esfleet/core/tile_codec.hpp"
 #include "esfleet/core/trajectory_io.hpp"
 

@@ -25,23 +25,6 @@ constexpr std::chrono::milliseconds kPoll{100};
 /// At the end, how long to wait for the readers to acknowledge the last scans.
 constexpr std::chrono::seconds kFinalAckTimeout{10};
 
-/// The scans of the log (the first max_scans if > 0); fewer if `stop` is set while reading.
-/// Throws LogError naming file and line.
-std::vector<LaserScan> read_log(const std::string& path, std::size_t max_scans,
-                                const std::atomic<bool>& stop) {
-  std::vector<LaserScan> scans;
-  CarmenReader reader(path);
-  while (auto scan = reader.next_scan()) {
-    scans.push_back(std::move(*scan));
-    if (max_scans > 0 && scans.size() >= max_scans) break;
-    if (stop.load()) break;
-  }
-  if (scans.empty()) {
-    throw LogError(path, 0, "no laser scans (FLASER/ROBOTLASER1) in file");
-  }
-  return scans;
-}
-
 /// Waits until every matched reader acknowledged every scan written, checking the stop flag;
 /// warns once if that takes long. Returns the seconds waited.
 double wait_for_acks(const dds::ScanWriter& writer, std::uint32_t seq,
@@ -63,7 +46,7 @@ double wait_for_acks(const dds::ScanWriter& writer, std::uint32_t seq,
 ReplayApp::ReplayApp(ReplayOptions options, const std::atomic<bool>& stop)
     : o_(std::move(options)), stop_(stop) {
   try {
-    scans_ = read_log(o_.log, o_.max_scans, stop_);
+    scans_ = read_carmen_log(o_.log, {}, o_.max_scans, &stop_);
   } catch (const std::exception& e) {
     throw UsageError(e.what());  // LogError: "<file>:<line>: ..."
   }

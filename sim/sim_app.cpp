@@ -5,13 +5,13 @@
 
 #include <algorithm>
 #include <cmath>
-#include <ctime>
 #include <filesystem>
 #include <stdexcept>
 #include <string>
 #include <thread>
 
 #include "app/program.hpp"
+#include "esfleet/core/clock.hpp"
 #include "esfleet/dds/node.hpp"
 #include "esfleet/dds/to_msg.hpp"
 #include "esfleet/dds/writer.hpp"
@@ -25,12 +25,6 @@ namespace {
 constexpr std::chrono::milliseconds kPoll{100};
 constexpr std::chrono::seconds kProgressPeriod{5};
 constexpr std::chrono::seconds kFinalAckTimeout{3};
-
-double thread_cpu_seconds() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) + static_cast<double>(ts.tv_nsec) * 1e-9;
-}
 
 /// User + system CPU of the whole process (DDS threads included), seconds.
 double process_cpu_seconds() {

@@ -4,7 +4,6 @@
 
 #include <algorithm>
 #include <cerrno>
-#include <charconv>
 #include <cmath>
 #include <cstring>
 #include <iterator>
@@ -12,6 +11,8 @@
 #include <string_view>
 #include <system_error>
 #include <utility>
+
+#include "line_fields.hpp"
 
 namespace esfleet {
 namespace {
@@ -25,12 +26,6 @@ constexpr std::size_t kTimeFields = 3;  // ipc_timestamp host logger_timestamp
 constexpr double kMaxStartAngle = 2.0 * std::numbers::pi;
 constexpr double kMinResolution = 1e-6;
 constexpr double kMaxResolution = 1.0;
-
-std::string describe(const std::string& file, std::size_t line, const std::string& what) {
-  return line == 0 ? file + ": " + what : file + ":" + std::to_string(line) + ": " + what;
-}
-
-bool is_blank(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
 
 // A CARMEN message name: a letter, then letters, digits, '_' or '-'.
 bool is_message_name(std::string_view s) {
@@ -61,24 +56,25 @@ std::string quote(std::string_view s) {
   return out + "\"";
 }
 
-// Parses a whole token as a number; false on anything else (trailing characters included).
 // from_chars takes no leading '+', which strtod-style writers may emit, so one is skipped.
+std::string_view without_plus(std::string_view s) {
+  if (s.size() > 1 && s[0] == '+' && s[1] != '-') s.remove_prefix(1);
+  return s;
+}
+
+// Parses a whole token as a number; false on anything else (trailing characters included).
 template <typename T>
 bool parse_number(std::string_view s, T& value) {
-  if (s.size() > 1 && s[0] == '+' && s[1] != '-') s.remove_prefix(1);
-  const char* end = s.data() + s.size();
-  const auto [ptr, ec] = std::from_chars(s.data(), end, value);
-  return ec == std::errc() && ptr == end;
+  return detail::parse_number(without_plus(s), value).ok();
 }
 
 // Why parse_number<T> rejected `s`, for an error message.
 template <typename T>
 std::string parse_problem(std::string_view s, std::string_view kind) {
   T value{};
-  if (s.size() > 1 && s[0] == '+' && s[1] != '-') s.remove_prefix(1);
-  const char* end = s.data() + s.size();
-  const auto [ptr, ec] = std::from_chars(s.data(), end, value);
-  if (ec == std::errc::result_out_of_range && ptr == end) {
+  s = without_plus(s);
+  const detail::NumberParse p = detail::parse_number(s, value);
+  if (p.ec == std::errc::result_out_of_range && p.whole) {
     return "is out of range for its type: " + quote(s);
   }
   return "is not " + std::string(kind) + ": " + quote(s);
@@ -87,7 +83,9 @@ std::string parse_problem(std::string_view s, std::string_view kind) {
 }  // namespace
 
 LogError::LogError(std::string file, std::size_t line, const std::string& what)
-    : std::runtime_error(describe(file, line, what)), file_(std::move(file)), line_(line) {}
+    : std::runtime_error(detail::line_message(file, line, what)),
+      file_(std::move(file)),
+      line_(line) {}
 
 struct CarmenReader::Impl {
   std::string path;
@@ -169,17 +167,6 @@ struct CarmenReader::Impl {
     }
     throw LogError(path, line_number + 1,
                    "line is longer than " + std::to_string(kMaxLineBytes) + " bytes");
-  }
-
-  void split(std::string_view line) {
-    tokens.clear();
-    std::size_t i = 0;
-    while (i < line.size()) {
-      while (i < line.size() && is_blank(line[i])) ++i;
-      const std::size_t start = i;
-      while (i < line.size() && !is_blank(line[i])) ++i;
-      if (i > start) tokens.push_back(line.substr(start, i - start));
-    }
   }
 
   // --- field access; `index` is the token index (0 = message name) ---
@@ -378,7 +365,7 @@ struct CarmenReader::Impl {
   std::optional<LaserScan> next_scan() {
     std::string_view line;
     while (read_line(line)) {
-      split(line);
+      detail::split_fields(line, tokens);
       if (tokens.empty() || tokens[0][0] == '#') continue;
       const std::string_view type = tokens[0];
       if (type == "FLASER") return parse_flaser();
@@ -443,36 +430,38 @@ CarmenReader::CarmenReader(CarmenReader&&) noexcept = default;
 CarmenReader& CarmenReader::operator=(CarmenReader&&) noexcept = default;
 
 std::optional<LaserScan> CarmenReader::next_scan() { return impl_->next_scan(); }
+const std::string& CarmenReader::name() const { return impl_->path; }
 const std::map<std::string, std::string>& CarmenReader::params() const { return impl_->params; }
 std::size_t CarmenReader::line_number() const { return impl_->line_number; }
 std::size_t CarmenReader::skipped_lines() const { return impl_->skipped_lines; }
 std::size_t CarmenReader::odom_messages() const { return impl_->odom_messages; }
 bool CarmenReader::saw_corrected_poses() const { return impl_->saw_corrected_poses; }
 
-namespace {
-std::vector<LaserScan> read_all(CarmenReader& reader, const std::string& name,
-                                std::size_t max_scans) {
+std::vector<LaserScan> read_scans(CarmenReader& reader, std::size_t max_scans,
+                                  const std::atomic<bool>* stop) {
   std::vector<LaserScan> scans;
   while (max_scans == 0 || scans.size() < max_scans) {
     std::optional<LaserScan> scan = reader.next_scan();
     if (!scan) break;
     scans.push_back(std::move(*scan));
+    if (stop != nullptr && stop->load()) break;
   }
-  if (scans.empty()) throw LogError(name, 0, "no laser scans (FLASER/ROBOTLASER1) in file");
+  if (scans.empty()) {
+    throw LogError(reader.name(), 0, "no laser scans (FLASER/ROBOTLASER1) in file");
+  }
   return scans;
 }
-}  // namespace
 
 std::vector<LaserScan> read_carmen_log(const std::string& path, CarmenReaderOptions options,
-                                       std::size_t max_scans) {
+                                       std::size_t max_scans, const std::atomic<bool>* stop) {
   CarmenReader reader(path, options);
-  return read_all(reader, path, max_scans);
+  return read_scans(reader, max_scans, stop);
 }
 
 std::vector<LaserScan> read_carmen_text(std::string text, const std::string& name,
                                         CarmenReaderOptions options, std::size_t max_scans) {
   CarmenReader reader = CarmenReader::from_text(std::move(text), name, options);
-  return read_all(reader, name, max_scans);
+  return read_scans(reader, max_scans);
 }
 
 }  // namespace esfleet

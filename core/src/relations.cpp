@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <array>
 #include <cerrno>
-#include <charconv>
 #include <cmath>
 #include <cstring>
 #include <fstream>
@@ -13,52 +12,18 @@
 #include <string_view>
 #include <tuple>
 #include <utility>
+#include <vector>
+
+#include "line_fields.hpp"
 
 namespace esfleet {
 namespace {
 
+using detail::finite_field;
+using detail::line_message;
+using detail::split_fields;
+
 constexpr std::size_t kFields = 8;  // t1 t2 x y z roll pitch yaw
-
-std::runtime_error line_error(const std::string& path, std::size_t line_no,
-                              const std::string& what) {
-  return std::runtime_error(path + ":" + std::to_string(line_no) + ": " + what);
-}
-
-bool is_space(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
-
-/// Splits `line` at whitespace into at most `out.size()` tokens; returns how many it found in
-/// total (which may exceed out.size(): those extra tokens are counted, not stored).
-std::size_t split(std::string_view line, std::array<std::string_view, kFields>& out) {
-  std::size_t count = 0, i = 0;
-  while (i < line.size()) {
-    while (i < line.size() && is_space(line[i])) ++i;
-    if (i == line.size()) break;
-    const std::size_t start = i;
-    while (i < line.size() && !is_space(line[i])) ++i;
-    if (count < out.size()) out[count] = line.substr(start, i - start);
-    ++count;
-  }
-  return count;
-}
-
-/// "'<token>' <what>". Built by appending: `"'" + std::string(...)` trips GCC 12's
-/// -Wrestrict false positive (GCC bug 105329).
-std::string describe(std::string_view token, std::string_view what) {
-  std::string s;
-  s.reserve(token.size() + what.size() + 3);
-  s.append("'").append(token).append("' ").append(what);
-  return s;
-}
-
-/// Parses a whole token as a finite double; returns an error description or an empty string.
-std::string parse_finite(std::string_view token, double& value) {
-  const char* const end = token.data() + token.size();
-  const auto [ptr, ec] = std::from_chars(token.data(), end, value);
-  if (ec == std::errc::result_out_of_range) return describe(token, "is out of range");
-  if (ec != std::errc() || ptr != end) return describe(token, "is not a number");
-  if (!std::isfinite(value)) return describe(token, "is not finite");
-  return {};
-}
 
 /// Index of the pose in `sorted` (ascending stamps) nearest to `t`, if within `tolerance`.
 /// A tie goes to the earlier pose. A non-finite `t` never matches.
@@ -100,22 +65,18 @@ std::vector<Relation> read_relations(const std::string& path) {
   std::vector<Relation> relations;
   std::string line;
   std::size_t line_no = 0;
+  std::vector<std::string_view> fields;
   while (std::getline(in, line)) {
     ++line_no;
-    std::array<std::string_view, kFields> tokens;
-    const std::size_t count = split(line, tokens);
-    if (count == 0 || tokens[0].front() == '#') continue;
-    if (count != kFields) {
-      throw line_error(
+    split_fields(line, fields);
+    if (fields.empty() || fields[0].front() == '#') continue;
+    if (fields.size() != kFields) {
+      throw std::runtime_error(line_message(
           path, line_no,
-          "expected 8 fields (t1 t2 x y z roll pitch yaw), got " + std::to_string(count));
+          "expected 8 fields (t1 t2 x y z roll pitch yaw), got " + std::to_string(fields.size())));
     }
     std::array<double, kFields> v{};
-    for (std::size_t i = 0; i < kFields; ++i) {
-      if (std::string what = parse_finite(tokens[i], v[i]); !what.empty()) {
-        throw line_error(path, line_no, "field " + std::to_string(i + 1) + ": " + what);
-      }
-    }
+    for (std::size_t i = 0; i < kFields; ++i) v[i] = finite_field(fields, i, path, line_no);
     relations.push_back({v[0], v[1], {v[2], v[3], normalize_angle(v[7])}});
   }
   if (in.bad()) throw std::runtime_error("cannot read relations '" + path + "': read error");

@@ -1,7 +1,5 @@
 #include "esfleet/core/slam.hpp"
 
-#include "esfleet/core/tracking.hpp"
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -13,17 +11,10 @@ namespace esfleet {
 void SlamConfig::validate() const {
   map.validate();
   update.validate();
-  es.validate();
+  tracking.validate();
   auto check = [](bool ok, const char* what) {
     if (!ok) throw std::invalid_argument(what);
   };
-  check(min_range >= 0.0f, "slam.min_range must be >= 0");
-  check(max_range >= 0.0f, "slam.max_range must be >= 0 (0 = all)");
-  check(init_sigma_xy >= 0.0 && std::isfinite(init_sigma_xy), "slam.init_sigma_xy must be >= 0");
-  check(init_sigma_theta_deg >= 0.0 && std::isfinite(init_sigma_theta_deg),
-        "slam.init_sigma_theta must be >= 0");
-  check(prior_sigma_xy >= 0.0 && prior_sigma_theta_deg >= 0.0,
-        "slam.prior_sigma_xy and prior_sigma_theta must be >= 0 (0 = no prior)");
   check(insert_min_travel >= 0.0 && insert_min_turn_deg >= 0.0,
         "slam.insert_min_travel and insert_min_turn must be >= 0");
   check(key_sigma_xy > 0.0 && key_sigma_theta_deg > 0.0,
@@ -33,17 +24,17 @@ void SlamConfig::validate() const {
 
 SlamConfig SlamConfig::paper() {
   SlamConfig c;
-  c.prediction = MotionPrediction::kPreviousPose;
-  c.use_odometry = false;
-  c.use_penalty = true;
-  c.init_sigma_xy = 0.05;
-  c.init_sigma_theta_deg = 2.0;
-  c.motion_hypotheses = false;
-  c.turn_hypotheses = false;
-  c.interpolation = Interpolation::kNone;
-  c.refine = false;
-  c.prior_sigma_xy = 0.0;
-  c.prior_sigma_theta_deg = 0.0;
+  c.tracking.prediction = MotionPrediction::kPreviousPose;
+  c.tracking.use_odometry = false;
+  c.tracking.use_penalty = true;
+  c.tracking.init_sigma_xy = 0.05;
+  c.tracking.init_sigma_theta_deg = 2.0;
+  c.tracking.motion_hypotheses = false;
+  c.tracking.turn_hypotheses = false;
+  c.tracking.interpolation = Interpolation::kNone;
+  c.tracking.refine = false;
+  c.tracking.prior_sigma_xy = 0.0;
+  c.tracking.prior_sigma_theta_deg = 0.0;
   c.insert_min_travel = 0.0;
   c.insert_min_turn_deg = 0.0;
   c.loop.enabled = false;
@@ -51,7 +42,7 @@ SlamConfig SlamConfig::paper() {
 }
 
 Slam::Slam(SlamConfig config)
-    : config_(config), map_(config.map), es_(config.es), rng_(config.seed) {
+    : config_(config), map_(config.map), es_(config.tracking.es), rng_(config.seed) {
   config_.validate();
 }
 
@@ -63,7 +54,8 @@ double ms_since(Clock::time_point t0) {
 }  // namespace
 
 SlamStep Slam::process(const LaserScan& scan) {
-  const ScanPoints points = prepare_scan(scan, config_.min_range, config_.max_range);
+  const ScanPoints points =
+      prepare_scan(scan, config_.tracking.min_range, config_.tracking.max_range);
   SlamStep step;
   bool insert = true;
   if (!trajectory_.empty()) {
@@ -72,7 +64,7 @@ SlamStep Slam::process(const LaserScan& scan) {
     if (trajectory_.size() >= 2) motion.previous = trajectory_[trajectory_.size() - 2];
     motion.odometry = last_odometry_;
     const auto t_search = Clock::now();
-    const TrackResult tracked = track_scan(config_, es_, rng_, map_, points, scan, motion);
+    const TrackResult tracked = track_scan(config_.tracking, es_, rng_, map_, points, scan, motion);
     step.predicted = tracked.predicted;
     step.pose = tracked.result.pose;
     step.fitness = tracked.result.value;
@@ -133,7 +125,8 @@ bool Slam::add_key_scan(const ScanPoints& points, const Pose2& pose, double stam
   }
   const auto match = find_loop_closure(
       keys_, graph_.nodes(), points, pose, path_length_, config_.loop, config_.map, config_.update,
-      slam_fitness_options(config_, config_.interpolation != Interpolation::kNone));
+      slam_fitness_options(config_.tracking,
+                           config_.tracking.interpolation != Interpolation::kNone));
   if (!match) return false;
   PoseGraphEdge e;
   e.from = match->anchor;

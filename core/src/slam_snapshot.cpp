@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "esfleet/core/tile_codec.hpp"
+#include "fnv1a.hpp"
 
 namespace esfleet {
 
@@ -15,15 +16,6 @@ namespace {
 
 constexpr std::string_view kMapMagic = "ESFMAP01";
 constexpr std::string_view kSlamMagic = "ESFSLAM1";
-
-std::uint64_t fnv1a(std::string_view bytes) {
-  std::uint64_t h = 0xcbf29ce484222325ull;
-  for (const char c : bytes) {
-    h ^= static_cast<unsigned char>(c);
-    h *= 0x100000001b3ull;
-  }
-  return h;
-}
 
 class Out {
  public:
@@ -53,7 +45,7 @@ class Out {
     bytes_.append(reinterpret_cast<const char*>(v.data()), v.size());
   }
   std::string finish() {
-    put(fnv1a(bytes_));
+    put(detail::fnv1a(bytes_));
     return std::move(bytes_);
   }
 
@@ -69,7 +61,7 @@ class In {
       fail("magic", "not a " + std::string(what) + " snapshot");
     std::uint64_t stored = 0;
     std::memcpy(&stored, bytes.data() + bytes.size() - 8, 8);
-    if (stored != fnv1a(bytes.substr(0, bytes.size() - 8))) {
+    if (stored != detail::fnv1a(bytes.substr(0, bytes.size() - 8))) {
       fail("checksum", "does not match the contents (corrupt or truncated)");
     }
     rest_ = bytes.substr(magic.size(), bytes.size() - magic.size() - 8);

@@ -9,13 +9,13 @@
 #include <optional>
 #include <string>
 
+#include "fnv1a.hpp"
+
 namespace esfleet {
 namespace {
 
 constexpr std::size_t kInflateChunk = 64 * 1024;           // output bytes per inflate() call
 constexpr std::size_t kInputSlice = std::size_t{1} << 30;  // input bytes per refill (uInt)
-constexpr std::uint64_t kFnvOffsetBasis = 0xcbf29ce484222325ull;
-constexpr std::uint64_t kFnvPrime = 0x100000001b3ull;
 
 /// Bytes of the largest valid varint stream of `cells` cells.
 std::size_t varint_bound(std::size_t cells) { return 2 * kMaxVarintBytes * cells; }
@@ -346,18 +346,10 @@ std::uint64_t tile_digest(std::span<const std::uint32_t> hit, std::span<const st
     throw std::invalid_argument("tile_digest: hit has " + std::to_string(hit.size()) +
                                 " cells, err " + std::to_string(err.size()));
   }
-  std::uint64_t h = kFnvOffsetBasis;
-  const auto mix = [&h](std::span<const std::uint32_t> values) {
-    for (const std::uint32_t v : values) {
-      for (int shift = 0; shift < 32; shift += 8) {
-        h ^= (v >> shift) & 0xFFu;
-        h *= kFnvPrime;
-      }
-    }
-  };
-  mix(hit);
-  mix(err);
-  return h;
+  detail::Fnv1a h;
+  for (const std::uint32_t v : hit) h.add_le32(v);
+  for (const std::uint32_t v : err) h.add_le32(v);
+  return h.value();
 }
 
 std::string map_digest(const GridMap& map) {

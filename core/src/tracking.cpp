@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 namespace esfleet {
 
@@ -11,12 +12,12 @@ Correction correction_between(const Pose2& centre, const Pose2& p) {
   return {p.x - centre.x, p.y - centre.y, normalize_angle(p.theta - centre.theta)};
 }
 
-bool use_prior(const SlamConfig& c) {
+bool use_prior(const TrackingConfig& c) {
   return c.prior_sigma_xy > 0.0 && c.prior_sigma_theta_deg > 0.0;
 }
 
 /// A multi-modal motion prior: the best of the Gaussians around each hypothesis.
-float prior(const SlamConfig& c, const Pose2& p, const std::vector<Pose2>& hypotheses) {
+float prior(const TrackingConfig& c, const Pose2& p, const std::vector<Pose2>& hypotheses) {
   const double sxy = c.prior_sigma_xy;
   const double sth = deg_to_rad(c.prior_sigma_theta_deg);
   double best = 0.0;
@@ -28,7 +29,7 @@ float prior(const SlamConfig& c, const Pose2& p, const std::vector<Pose2>& hypot
   return static_cast<float>(best);
 }
 
-EsResult search(const SlamConfig& c, const EvolutionStrategy& es, Rng& rng, const GridMap& map,
+EsResult search(const TrackingConfig& c, const EvolutionStrategy& es, Rng& rng, const GridMap& map,
                 const ScanPoints& points, const Pose2& centre, const std::vector<Pose2>& hypotheses,
                 const std::vector<Pose2>& prior_hypotheses) {
   std::vector<Correction> extra;
@@ -47,7 +48,7 @@ EsResult search(const SlamConfig& c, const EvolutionStrategy& es, Rng& rng, cons
   return r;
 }
 
-EsResult polish(const SlamConfig& c, const GridMap& map, const ScanPoints& points,
+EsResult polish(const TrackingConfig& c, const GridMap& map, const ScanPoints& points,
                 const Pose2& start, const std::vector<Pose2>& hypotheses) {
   const FitnessEvaluator eval(map, points,
                               slam_fitness_options(c, c.interpolation != Interpolation::kNone));
@@ -63,14 +64,28 @@ EsResult polish(const SlamConfig& c, const GridMap& map, const ScanPoints& point
 
 }  // namespace
 
-FitnessOptions slam_fitness_options(const SlamConfig& config, bool interpolate) {
+void TrackingConfig::validate() const {
+  es.validate();
+  auto check = [](bool ok, const char* what) {
+    if (!ok) throw std::invalid_argument(what);
+  };
+  check(min_range >= 0.0f, "slam.min_range must be >= 0");
+  check(max_range >= 0.0f, "slam.max_range must be >= 0 (0 = all)");
+  check(init_sigma_xy >= 0.0 && std::isfinite(init_sigma_xy), "slam.init_sigma_xy must be >= 0");
+  check(init_sigma_theta_deg >= 0.0 && std::isfinite(init_sigma_theta_deg),
+        "slam.init_sigma_theta must be >= 0");
+  check(prior_sigma_xy >= 0.0 && prior_sigma_theta_deg >= 0.0,
+        "slam.prior_sigma_xy and prior_sigma_theta must be >= 0 (0 = no prior)");
+}
+
+FitnessOptions slam_fitness_options(const TrackingConfig& config, bool interpolate) {
   FitnessOptions o;
   o.use_penalty = config.use_penalty;
   o.interpolate = interpolate;
   return o;
 }
 
-Pose2 predict_pose(const SlamConfig& config, const MotionState& motion, const LaserScan& scan,
+Pose2 predict_pose(const TrackingConfig& config, const MotionState& motion, const LaserScan& scan,
                    std::vector<Pose2>* alternatives) {
   const Pose2& prev = motion.last.pose;
   std::optional<Pose2> odom, velocity, step;
@@ -122,7 +137,7 @@ Pose2 predict_pose(const SlamConfig& config, const MotionState& motion, const La
   return centre;
 }
 
-TrackResult track_scan(const SlamConfig& config, const EvolutionStrategy& es, Rng& rng,
+TrackResult track_scan(const TrackingConfig& config, const EvolutionStrategy& es, Rng& rng,
                        const GridMap& map, const ScanPoints& points, const LaserScan& scan,
                        const MotionState& motion) {
   TrackResult out;

@@ -5,7 +5,6 @@
 
 #include <atomic>
 #include <chrono>
-#include <ctime>
 #include <mutex>
 #include <sstream>
 #include <stdexcept>
@@ -22,6 +21,7 @@
 #include <fastdds/dds/subscriber/SampleInfo.hpp>
 #include <fastdds/dds/subscriber/qos/DataReaderQos.hpp>
 
+#include "esfleet/core/clock.hpp"
 #include "esfleet/dds/reader.hpp"
 #include "esfleet/dds/writer.hpp"
 #include "node_impl.hpp"
@@ -92,12 +92,6 @@ void set_common_qos(Qos& qos) {
   qos.resource_limits().max_samples = 0;
   qos.resource_limits().max_instances = 0;
   qos.resource_limits().max_samples_per_instance = 0;
-}
-
-std::int64_t realtime_ns() {
-  timespec ts{};
-  clock_gettime(CLOCK_REALTIME, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
 }
 
 /// " in partition 'X'" for error messages, "" for the default partition.

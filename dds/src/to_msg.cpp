@@ -1,17 +1,9 @@
 #include "esfleet/dds/to_msg.hpp"
 
-#include <ctime>
-
 namespace esfleet::dds {
 
 static_assert(mapshare::kProtocolVersion == msg::kProtocolVersion,
               "mapshare/messages.hpp and idl/esfleet.idl must name the same protocol");
-
-std::int64_t realtime_ns() {
-  timespec ts{};
-  clock_gettime(CLOCK_REALTIME, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
-}
 
 namespace {
 /// The fields MapTile and MapTileDelta share.

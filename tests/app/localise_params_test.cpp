@@ -48,8 +48,8 @@ TEST(LocaliseParams, FlagsReachTheConfigAndBadValuesAreRefusedByValidation) {
                         "sum"};
   app.parse(9, const_cast<char**>(argv));
   t.apply();
-  EXPECT_EQ(c.global, GlobalSearch::kEs);
-  EXPECT_EQ(c.coarse_score, CoarseScore::kSum);
+  EXPECT_EQ(c.search.method, GlobalSearchMethod::kEs);
+  EXPECT_EQ(c.search.coarse_score, CoarseScore::kSum);
   EXPECT_EQ(c.confirm_scans, 6);
   EXPECT_EQ(c.lost_scans, 0);
   try {

@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <cmath>
 #include <fstream>
 #include <functional>
@@ -457,6 +458,32 @@ TEST(CarmenReaderErrors, CorruptGzipChecksum) {
   ASSERT_TRUE(error.has_value()) << "a .gz with a bad checksum must not end silently";
   expect_log_error([&] { throw *error; }, path, scans.size() + 1,
                    "gzip stream is truncated or corrupt (zlib: incorrect data check)");
+}
+
+// ---------------------------------------------------------------- reading a whole log
+
+TEST(ReadScans, ContinuesFromTheReaderAndStopsWhenAskedOrAtMaxScans) {
+  const auto all = read_carmen_log(fixture("mit-csail-excerpt.clf"));
+  ASSERT_GE(all.size(), 4u);
+  CarmenReader reader(fixture("mit-csail-excerpt.clf"));
+  ASSERT_TRUE(reader.next_scan());
+  EXPECT_EQ(reader.name(), fixture("mit-csail-excerpt.clf"));
+  const auto two = read_scans(reader, 2);  // the second and third scans
+  ASSERT_EQ(two.size(), 2u);
+  EXPECT_EQ(two[0].stamp, all[1].stamp);
+  EXPECT_EQ(two[1].stamp, all[2].stamp);
+  // A stop flag already set: the scan being read is kept, no further one.
+  std::atomic<bool> stop{true};
+  const auto one = read_carmen_log(fixture("mit-csail-excerpt.clf"), {}, 0, &stop);
+  ASSERT_EQ(one.size(), 1u);
+  EXPECT_EQ(one[0].stamp, all[0].stamp);
+  stop = false;
+  EXPECT_EQ(read_carmen_log(fixture("mit-csail-excerpt.clf"), {}, 0, &stop).size(), all.size());
+  // Nothing left to read is an error naming the reader's file.
+  while (reader.next_scan()) {
+  }
+  expect_log_error([&] { read_scans(reader); }, fixture("mit-csail-excerpt.clf"), 0,
+                   "no laser scans");
 }
 
 // ---------------------------------------------------------------- in memory (from_text)

@@ -10,9 +10,6 @@
 #include <numbers>
 #include <stdexcept>
 
-#include "esfleet/core/fitness.hpp"
-#include "esfleet/core/map_update.hpp"
-#include "esfleet/core/scan_points.hpp"
 #include "synthetic_world.hpp"
 
 namespace esfleet {
@@ -20,23 +17,8 @@ namespace {
 
 using testing::asymmetric_room;
 using testing::make_scan;
+using testing::map_of;
 using testing::Segment;
-
-/// The map a leader would have: scans from a grid of poses over the room's free space.
-GridMap map_of(const std::vector<Segment>& world, double w, double h) {
-  GridMapConfig c;
-  c.pyramid_levels = 3;
-  GridMap map(c);
-  for (double x = 0.5; x < w; x += 0.75) {
-    for (double y = 0.5; y < h; y += 0.75) {
-      for (int k = 0; k < 4; ++k) {
-        const Pose2 p{x, y, k * std::numbers::pi / 2};
-        update_map(map, prepare_scan(make_scan(world, p)), p, MapUpdateConfig{});
-      }
-    }
-  }
-  return map;
-}
 
 /// Straight drive from `from`, `n` scans `step` metres apart, then the same back.
 std::vector<Pose2> drive(const Pose2& from, int n, double step) {
@@ -63,6 +45,20 @@ std::vector<Segment> twin_pillar_room() {
       {7, 4, 8, 4},  {8, 4, 8, 5},   {8, 5, 7, 5},  {7, 5, 7, 4},  // its twin
   };
 }
+
+/// Records what a localiser reports to its observer: the stages of the last global search
+/// (only if `stages`) and the hypotheses after the last scan.
+struct Recorder : LocaliserObserver {
+  explicit Recorder(bool record_stages) : stages(record_stages) {}
+  bool wants_search_stages() const override { return stages; }
+  void on_search_stages(const SearchStages& s) override { last_search = s; }
+  void on_scan(const LocaliserStep& /*step*/, const std::vector<HypothesisView>& h) override {
+    hypotheses = h;
+  }
+  bool stages;
+  SearchStages last_search;
+  std::vector<HypothesisView> hypotheses;
+};
 
 struct Outcome {
   int declared_at = -1;  ///< scan index, -1 = never
@@ -112,7 +108,7 @@ TEST(Localiser, TheEsSearchOfThePaperAlsoLocalises) {
   const auto world = asymmetric_room();
   const GridMap map = map_of(world, 12, 8);
   LocaliserConfig c;
-  c.global = GlobalSearch::kEs;
+  c.search.method = GlobalSearchMethod::kEs;
   c.seed = 5;
   Localiser loc(c);
   const Outcome r = localise(loc, map, world, drive({9.0, 6.0, -2.5}, 60, 0.1));
@@ -127,16 +123,19 @@ TEST(Localiser, RecordsTheStagesOfItsGridSearchOnlyWhenAsked) {
   LocaliserConfig c;
   c.seed = 2;
   Localiser quiet(c);
+  Recorder quiet_observer(/*stages=*/false);
+  quiet.set_observer(&quiet_observer);
   ASSERT_TRUE(quiet.process(map, make_scan(world, truth)).global_search);
-  EXPECT_TRUE(quiet.last_search().coarse.empty());
+  EXPECT_TRUE(quiet_observer.last_search.coarse.empty());
 
   Localiser loc(c);
-  loc.record_search_stages(true);
+  Recorder observer(/*stages=*/true);
+  loc.set_observer(&observer);
   ASSERT_TRUE(loc.process(map, make_scan(world, truth)).global_search);
-  const Localiser::SearchStages& st = loc.last_search();
+  const SearchStages& st = observer.last_search;
   ASSERT_FALSE(st.candidates.empty());
-  EXPECT_LE(st.candidates.size(), static_cast<std::size_t>(c.candidates));
-  EXPECT_LE(st.coarse.size(), static_cast<std::size_t>(c.coarse_keep));
+  EXPECT_LE(st.candidates.size(), static_cast<std::size_t>(c.search.candidates));
+  EXPECT_LE(st.coarse.size(), static_cast<std::size_t>(c.search.coarse_keep));
   ASSERT_EQ(st.ranked.size(), st.coarse.size());
   ASSERT_EQ(st.ranked_evidence.size(), st.ranked.size());
   ASSERT_EQ(st.candidate_evidence.size(), st.candidates.size());
@@ -158,91 +157,17 @@ TEST(Localiser, RecordsTheStagesOfItsGridSearchOnlyWhenAsked) {
   }
 }
 
-TEST(Localiser, TheCoarseScoreIsThePenalisedFitnessOrTheSumOfMapValues) {
-  const auto world = asymmetric_room();
-  const GridMap map = map_of(world, 12, 8);
-  const LaserScan scan = make_scan(world, {2.0, 1.5, 0.3});
-  for (const bool penalty : {true, false}) {
-    LocaliserConfig c;
-    c.seed = 2;
-    c.coarse_score = penalty ? CoarseScore::kFitness : CoarseScore::kSum;
-    Localiser loc(c);
-    loc.record_search_stages(true);
-    ASSERT_TRUE(loc.process(map, scan).global_search);
-    const Localiser::SearchStages& st = loc.last_search();
-    ASSERT_FALSE(st.samples.empty());
-    const ScanPoints pts = prepare_scan(scan, c.slam.min_range, c.slam.max_range);
-    // Each sample's score is the fitness (Condition 1 or 2) on the coarse level at the heading
-    // recorded for it.
-    FitnessOptions o;
-    o.use_penalty = penalty;
-    o.level = c.coarse_level;
-    o.stride = std::max(1, static_cast<int>(pts.size()) / c.coarse_points);
-    const FitnessEvaluator coarse(map, pts, o);
-    o.use_penalty = !penalty;
-    const FitnessEvaluator other(map, pts, o);
-    int differ = 0;
-    for (std::size_t i = 0; i < st.samples.size(); ++i) {
-      EXPECT_FLOAT_EQ(st.sample_score[i], coarse.fitness(st.samples[i])) << "sample " << i;
-      differ += other.fitness(st.samples[i]) != st.sample_score[i];
-    }
-    EXPECT_GT(differ, 0) << "penalty " << penalty << ": p_occ was 1 everywhere";
-  }
-}
-
-TEST(Localiser, CoarseScoreBothKeepsTheBestPosesOfEachRanking) {
-  const auto world = asymmetric_room();
-  const GridMap map = map_of(world, 12, 8);
-  const LaserScan scan = make_scan(world, {2.0, 1.5, 0.3});
-  auto coarse_of = [&](CoarseScore by) {
-    LocaliserConfig c;
-    c.seed = 2;
-    c.coarse_keep = 40;  // fewer than the room's distinct coarse poses: the rankings differ
-    c.coarse_score = by;
-    Localiser loc(c);
-    loc.record_search_stages(true);
-    loc.process(map, scan);
-    return loc.last_search().coarse;
-  };
-  const std::vector<Pose2> fit = coarse_of(CoarseScore::kFitness);
-  const std::vector<Pose2> sum = coarse_of(CoarseScore::kSum);
-  const std::vector<Pose2> both = coarse_of(CoarseScore::kBoth);
-  ASSERT_EQ(fit.size(), 40u);
-  ASSERT_EQ(sum.size(), 40u);
-  auto same = [](const Pose2& a, const Pose2& b) {
-    return a.x == b.x && a.y == b.y && a.theta == b.theta;
-  };
-  auto count_in = [&](const std::vector<Pose2>& of, const std::vector<Pose2>& in) {
-    return std::count_if(of.begin(), of.end(), [&](const Pose2& p) {
-      return std::any_of(in.begin(), in.end(), [&](const Pose2& q) { return same(p, q); });
-    });
-  };
-  EXPECT_LT(count_in(sum, fit), 40) << "the two rankings kept the same poses";
-  // The fitness ranking's poses first, then the sum's best 40 not already near one of them.
-  ASSERT_GT(both.size(), fit.size());
-  EXPECT_LE(both.size(), 80u);
-  for (std::size_t i = 0; i < fit.size(); ++i) EXPECT_TRUE(same(both[i], fit[i])) << i;
-  EXPECT_EQ(count_in(both, fit), 40);
-  // Each of the sum ranking's poses is kept, or lies beside a kept pose (the coarse poses'
-  // spacing: twice the 0.3 m sample step and distinct_theta_deg, 10 degrees).
-  const long beside = std::count_if(sum.begin(), sum.end(), [&](const Pose2& p) {
-    return std::any_of(both.begin(), both.end(), [&](const Pose2& q) {
-      return std::hypot(p.x - q.x, p.y - q.y) < 0.6 + 1e-9 &&
-             std::abs(normalize_angle(p.theta - q.theta)) < deg_to_rad(10.0) + 1e-9;
-    });
-  });
-  EXPECT_GE(beside, 38) << "of 40";
-}
-
 TEST(Localiser, HypothesisIdsAreDistinctAndKeptWhileFollowed) {
   const auto world = asymmetric_room();
   const GridMap map = map_of(world, 12, 8);
   LocaliserConfig c;
   c.seed = 3;
   Localiser loc(c);
+  Recorder observer(/*stages=*/false);
+  loc.set_observer(&observer);
   const std::vector<Pose2> path = drive({2.0, 1.5, 0.3}, 3, 0.1);
   loc.process(map, make_scan(world, path[0], 0.0));
-  const auto first = loc.hypotheses();
+  const auto first = observer.hypotheses;
   ASSERT_GE(first.size(), 2u);
   for (std::size_t i = 0; i < first.size(); ++i) {
     EXPECT_GT(first[i].id, 0u);
@@ -252,7 +177,7 @@ TEST(Localiser, HypothesisIdsAreDistinctAndKeptWhileFollowed) {
   // a new search.
   const LocaliserStep s = loc.process(map, make_scan(world, path[1], 0.2));
   ASSERT_FALSE(s.global_search);
-  for (const auto& h : loc.hypotheses()) {
+  for (const auto& h : observer.hypotheses) {
     EXPECT_TRUE(
         std::any_of(first.begin(), first.end(), [&](const auto& f) { return f.id == h.id; }))
         << "id " << h.id;
@@ -348,16 +273,6 @@ TEST(Localiser, NoticesAKidnapAndRelocalises) {
   EXPECT_GT(again_at, lost_at) << "not relocalised";
 }
 
-TEST(Localiser, ContradictionIsTheShareOfEndPointsOnKnownFreeCells) {
-  FitnessValue v;
-  EXPECT_EQ(contradiction(v), 0.0f);  // no end points
-  v.n_points = 200;
-  v.n_known = 150;
-  v.n_hit = 120;
-  EXPECT_FLOAT_EQ(contradiction(v), 30.0f / 200.0f);
-  EXPECT_FLOAT_EQ(evidence(v), 120.0f / 200.0f);
-}
-
 TEST(Localiser, TheContradictionRouteLocalisesAndStillDoesNotGuessATwin) {
   // The route clears a rival only on many more end points in known free space; a twin pose
   // has exactly as many, so the symmetric room must stay undeclared or right.
@@ -384,7 +299,7 @@ TEST(Localiser, TheContradictionRouteLocalisesAndStillDoesNotGuessATwin) {
 
 TEST(Localiser, ConfigValidationNamesTheField) {
   LocaliserConfig c;
-  c.candidates = 0;
+  c.search.candidates = 0;
   try {
     Localiser loc(c);
     FAIL() << "no throw";

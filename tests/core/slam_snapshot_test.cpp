@@ -23,7 +23,7 @@ std::vector<LaserScan> csail_scans(std::size_t n) {
 
 SlamConfig test_config() {
   SlamConfig c;
-  c.use_odometry = true;
+  c.tracking.use_odometry = true;
   c.seed = 7;
   return c;
 }

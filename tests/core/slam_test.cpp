@@ -92,19 +92,19 @@ TEST(Slam, PaperConfigurationTracksSlowMotion) {
 
 TEST(Slam, PaperConfigurationSwitchesEveryExtensionOff) {
   const SlamConfig p = SlamConfig::paper();
-  EXPECT_EQ(p.prediction, MotionPrediction::kPreviousPose);
-  EXPECT_FALSE(p.use_odometry);
-  EXPECT_TRUE(p.use_penalty);
-  EXPECT_FALSE(p.motion_hypotheses);
-  EXPECT_FALSE(p.turn_hypotheses);
-  EXPECT_EQ(p.interpolation, Interpolation::kNone);
-  EXPECT_FALSE(p.refine);
-  EXPECT_EQ(p.prior_sigma_xy, 0.0);
+  EXPECT_EQ(p.tracking.prediction, MotionPrediction::kPreviousPose);
+  EXPECT_FALSE(p.tracking.use_odometry);
+  EXPECT_TRUE(p.tracking.use_penalty);
+  EXPECT_FALSE(p.tracking.motion_hypotheses);
+  EXPECT_FALSE(p.tracking.turn_hypotheses);
+  EXPECT_EQ(p.tracking.interpolation, Interpolation::kNone);
+  EXPECT_FALSE(p.tracking.refine);
+  EXPECT_EQ(p.tracking.prior_sigma_xy, 0.0);
   EXPECT_EQ(p.insert_min_travel, 0.0);
   EXPECT_EQ(p.insert_min_turn_deg, 0.0);
   EXPECT_FALSE(p.loop.enabled);
-  EXPECT_EQ(p.es.mu, 100);
-  EXPECT_EQ(p.es.iterations, 1000);
+  EXPECT_EQ(p.tracking.es.mu, 100);
+  EXPECT_EQ(p.tracking.es.iterations, 1000);
   EXPECT_NO_THROW(p.validate());
 }
 
@@ -171,7 +171,7 @@ TEST(Slam, OdometryPredictionFollowsFastMotion) {
     scans[i].odometry = odom;
   }
   SlamConfig config;
-  config.use_odometry = true;
+  config.tracking.use_odometry = true;
   config.seed = 3;
   const TrackError e = track_error(run(config, scans), path);
   EXPECT_LT(e.xy, 0.05);
@@ -189,7 +189,7 @@ TEST(Slam, FirstScanIsAtTheOriginAndMapIsBuilt) {
 
 TEST(Slam, InvalidConfigurationIsRefusedNamingTheField) {
   SlamConfig c;
-  c.init_sigma_xy = -1.0;
+  c.tracking.init_sigma_xy = -1.0;
   try {
     c.validate();
     FAIL() << "no exception";

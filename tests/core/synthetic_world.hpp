@@ -8,7 +8,10 @@
 #include <vector>
 
 #include "esfleet/core/geometry.hpp"
+#include "esfleet/core/grid_map.hpp"
 #include "esfleet/core/laser_scan.hpp"
+#include "esfleet/core/map_update.hpp"
+#include "esfleet/core/scan_points.hpp"
 
 namespace esfleet::testing {
 
@@ -55,6 +58,23 @@ inline LaserScan make_scan(const std::vector<Segment>& world, const Pose2& pose,
     scan.ranges.push_back(r < max_range ? static_cast<float>(r) : 81.91f);
   }
   return scan;
+}
+
+/// The map a leader would have of a `w` x `h` m world: scans from a grid of poses over its
+/// free space (pyramid levels for the localiser's coarse search).
+inline GridMap map_of(const std::vector<Segment>& world, double w, double h) {
+  GridMapConfig c;
+  c.pyramid_levels = 3;
+  GridMap map(c);
+  for (double x = 0.5; x < w; x += 0.75) {
+    for (double y = 0.5; y < h; y += 0.75) {
+      for (int k = 0; k < 4; ++k) {
+        const Pose2 p{x, y, k * std::numbers::pi / 2};
+        update_map(map, prepare_scan(make_scan(world, p)), p, MapUpdateConfig{});
+      }
+    }
+  }
+  return map;
 }
 
 }  // namespace esfleet::testing

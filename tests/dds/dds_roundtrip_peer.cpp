@@ -39,6 +39,7 @@
 #include <thread>
 #include <vector>
 
+#include "esfleet/core/clock.hpp"
 #include "esfleet/dds/node.hpp"
 #include "esfleet/dds/reader.hpp"
 #include "esfleet/dds/writer.hpp"
@@ -122,12 +123,6 @@ std::vector<std::uint8_t> payload_of(int index, std::uint64_t version, int bytes
   return p;
 }
 
-std::int64_t realtime_ns() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(
-             std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
-
 /// Every /dev/shm/fastrtps* file this process has mapped or open.
 std::set<std::string> own_shm_files() {
   std::set<std::string> files;
@@ -206,7 +201,7 @@ esfleet::msg::MapTile make_tile(int index, std::uint64_t version, int payload_by
   tile.encoding(esfleet::msg::kEncodingRaw);
   tile.cells(64 * 64);
   tile.payload(payload_of(index, version, payload_bytes));
-  tile.leader_stamp_ns(static_cast<std::uint64_t>(realtime_ns()));
+  tile.leader_stamp_ns(static_cast<std::uint64_t>(esfleet::realtime_ns()));
   return tile;
 }
 

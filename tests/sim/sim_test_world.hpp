@@ -4,7 +4,7 @@
 #include <cmath>
 #include <cstdint>
 
-#include "esfleet/core/map_io.hpp"
+#include "esfleet/core/ros_map_reader.hpp"
 #include "esfleet/sim/world.hpp"
 
 namespace esfleet::sim::testing {

@@ -27,6 +27,7 @@
 // them. Messages name the bad field and its position, counting the first token after the message
 // name as field 1, e.g. "log.clf:12: FLASER range[17] (field 19) is NaN".
 
+#include <atomic>
 #include <cstddef>
 #include <map>
 #include <memory>
@@ -101,6 +102,8 @@ class CarmenReader {
   /// max_range = min(maximum_range, no_return_range), odometry = robot pose fields.
   std::optional<LaserScan> next_scan();
 
+  /// The file being read, or the name given to from_text: what LogErrors name.
+  const std::string& name() const;
   /// PARAM lines seen so far: name -> value (a later line for the same name wins).
   const std::map<std::string, std::string>& params() const;
   /// Last line read (1-based); 0 before the first.
@@ -119,11 +122,20 @@ class CarmenReader {
   std::unique_ptr<Impl> impl_;
 };
 
-/// Reads all laser scans of `path` in file order (only the first `max_scans` if > 0). Throws
-/// LogError as CarmenReader does, and "<path>: no laser scans (FLASER/ROBOTLASER1) in file" if
-/// the file holds none (an empty file included).
+/// Reads the rest of `reader`'s laser scans in file order: only the first `max_scans` if > 0,
+/// and none after the scan at which `*stop` (if given; e.g. a program's signal flag) is found
+/// set. The one loop behind reading a whole log. Throws LogError as next_scan does, and
+/// "<reader.name()>: no laser scans (FLASER/ROBOTLASER1) in file" if it read none.
+std::vector<LaserScan> read_scans(CarmenReader& reader, std::size_t max_scans = 0,
+                                  const std::atomic<bool>* stop = nullptr);
+
+/// read_scans over the log `path` from its start: all its laser scans in file order (only the
+/// first `max_scans` if > 0, fewer if `*stop` is set while reading). Throws LogError as
+/// CarmenReader does, and "<path>: no laser scans (FLASER/ROBOTLASER1) in file" if the file
+/// holds none (an empty file included).
 std::vector<LaserScan> read_carmen_log(const std::string& path, CarmenReaderOptions options = {},
-                                       std::size_t max_scans = 0);
+                                       std::size_t max_scans = 0,
+                                       const std::atomic<bool>* stop = nullptr);
 
 /// read_carmen_log over log text in memory (CarmenReader::from_text); `name` stands for the file
 /// in messages.

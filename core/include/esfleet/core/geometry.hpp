@@ -39,6 +39,12 @@ struct Pose2 {
   friend bool operator==(const Pose2&, const Pose2&) = default;
 };
 
+/// Whether `a` and `b` are one place: closer than `xy` metres and `theta` radians.
+inline bool same_place(const Pose2& a, const Pose2& b, double xy, double theta) {
+  return std::hypot(a.x - b.x, a.y - b.y) < xy &&
+         std::abs(normalize_angle(a.theta - b.theta)) < theta;
+}
+
 /// A pose with the time it belongs to (seconds, the log's clock).
 struct TimedPose {
   double stamp = 0.0;

@@ -25,55 +25,20 @@
 #include "esfleet/core/pose_graph.hpp"
 #include "esfleet/core/random.hpp"
 #include "esfleet/core/scan_points.hpp"
+#include "esfleet/core/tracking.hpp"
 
 namespace esfleet {
 
-enum class MotionPrediction {
-  kPreviousPose,      ///< the previous estimate (the paper's correction to "the current position")
-  kConstantVelocity,  ///< previous estimate plus the last inter-scan motion, scaled by time
-};
-
-/// Where the fitness interpolates map values bilinearly between cell centres (ours).
-enum class Interpolation {
-  kNone,    ///< nearest cell everywhere (the paper)
-  kPolish,  ///< the ES uses nearest cells, the final polish interpolates
-  kAll,     ///< ES and polish interpolate (4 look-ups per beam)
-};
-
+/// The leader's SLAM: its map, the per-scan tracking, scan insertion and loop closure.
 struct SlamConfig {
   GridMapConfig map;
   MapUpdateConfig update;
-  EsConfig es;
-  bool use_penalty = true;    ///< fitness with p_occ (paper Condition 1); false = Condition 2
-  bool use_odometry = false;  ///< predict with the odometry increment (paper: off)
-  MotionPrediction prediction = MotionPrediction::kConstantVelocity;  ///< without odometry
-  float min_range = 0.0f;  ///< beams shorter than this are ignored (m)
-  float max_range = 0.0f;  ///< beams at or beyond this are ignored (m); 0 = sensor maximum
-  /// Initial population: zero correction (and the motion hypotheses) plus draws N(0, sigma)
-  /// around the prediction.
-  double init_sigma_xy = 0.1;         ///< metres
-  double init_sigma_theta_deg = 8.0;  ///< degrees
-  std::uint64_t seed = 1;             ///< seeds the ES; same input + seed = same trajectory
+  /// The per-scan pose search (ES, fitness, prediction, hypotheses, prior; tracking.hpp), the
+  /// part of the SLAM a follower's localiser shares.
+  TrackingConfig tracking;
+  std::uint64_t seed = 1;  ///< seeds the ES; same input + seed = same trajectory
 
   // --- Beyond the paper (ours). SlamConfig::paper() switches all of these off. ---
-  /// Put every motion hypothesis (previous pose, constant velocity, odometry) into the initial
-  /// population, not only the one the search is centred on. With odometry the previous pose
-  /// is left out (in a corridor it would let the search stop the robot).
-  bool motion_hypotheses = true;
-  /// Laser only: also the constant-velocity pose turned by +-1 and +-2 times the last turn
-  /// (turns that speed up, stop or reverse).
-  bool turn_hypotheses = true;
-  Interpolation interpolation = Interpolation::kAll;
-  /// Polish the ES result with a deterministic pattern search (refine_pose_with).
-  bool refine = true;
-  /// Motion prior (0 = off): the search maximises fitness * max_h exp(-m_h^2 / 2), m_h the
-  /// distance to motion hypothesis h in units of these sigmas: a tie-breaker for directions
-  /// the map does not constrain (corridors), wide enough not to fight a clear match.
-  double prior_sigma_xy = 0.3;          ///< metres
-  double prior_sigma_theta_deg = 10.0;  ///< degrees
-  /// Laser only: the prior also favours the previous pose (a stop). Off: the previous pose is
-  /// only in the initial population while another hypothesis says the robot moves.
-  bool prior_on_stop = false;
   /// Write a scan into the map only once the pose moved this far from the last inserted one
   /// (either threshold; 0 and 0 = every scan, as in the paper).
   double insert_min_travel = 0.1;    ///< metres

@@ -1,22 +1,74 @@
 #pragma once
 // One pose-tracking step against a fixed map: predict the pose of a new scan from the past
 // estimates (and odometry), search it with the (mu+1)-ES, polish it. The leader's SLAM (slam.hpp)
-// and the follower's localiser (localiser.hpp) share it, so a follower tracks exactly as the
-// leader maps. The configuration is the SLAM's (SlamConfig): the ES parameters, prediction,
-// hypotheses, interpolation, prior.
+// and the follower's localiser (localiser.hpp) share it and both embed its configuration
+// (TrackingConfig), so a follower tracks exactly as the leader maps.
 
 #include <optional>
 #include <vector>
 
 #include "esfleet/core/es_search.hpp"
+#include "esfleet/core/fitness.hpp"
 #include "esfleet/core/geometry.hpp"
 #include "esfleet/core/grid_map.hpp"
 #include "esfleet/core/laser_scan.hpp"
 #include "esfleet/core/random.hpp"
 #include "esfleet/core/scan_points.hpp"
-#include "esfleet/core/slam.hpp"
 
 namespace esfleet {
+
+enum class MotionPrediction {
+  kPreviousPose,      ///< the previous estimate (the paper's correction to "the current position")
+  kConstantVelocity,  ///< previous estimate plus the last inter-scan motion, scaled by time
+};
+
+/// Where the fitness interpolates map values bilinearly between cell centres (ours).
+enum class Interpolation {
+  kNone,    ///< nearest cell everywhere (the paper)
+  kPolish,  ///< the ES uses nearest cells, the final polish interpolates
+  kAll,     ///< ES and polish interpolate (4 look-ups per beam)
+};
+
+/// What the per-scan tracking step reads: the ES, the fitness, the motion prediction and
+/// hypotheses, the polish and the motion prior, and the beams it matches. SlamConfig and
+/// LocaliserConfig both embed one. The defaults are esfleet's; SlamConfig::paper() holds the
+/// paper's values.
+struct TrackingConfig {
+  EsConfig es;
+  bool use_penalty = true;    ///< fitness with p_occ (paper Condition 1); false = Condition 2
+  bool use_odometry = false;  ///< predict with the odometry increment (paper: off)
+  MotionPrediction prediction = MotionPrediction::kConstantVelocity;  ///< without odometry
+  /// The beams matched (Slam and Localiser prepare each scan with these).
+  float min_range = 0.0f;  ///< beams shorter than this are ignored (m)
+  float max_range = 0.0f;  ///< beams at or beyond this are ignored (m); 0 = sensor maximum
+  /// Initial population: zero correction (and the motion hypotheses) plus draws N(0, sigma)
+  /// around the prediction.
+  double init_sigma_xy = 0.1;         ///< metres
+  double init_sigma_theta_deg = 8.0;  ///< degrees
+
+  // --- Beyond the paper (ours). SlamConfig::paper() switches all of these off. ---
+  /// Put every motion hypothesis (previous pose, constant velocity, odometry) into the initial
+  /// population, not only the one the search is centred on. With odometry the previous pose
+  /// is left out (in a corridor it would let the search stop the robot).
+  bool motion_hypotheses = true;
+  /// Laser only: also the constant-velocity pose turned by +-1 and +-2 times the last turn
+  /// (turns that speed up, stop or reverse).
+  bool turn_hypotheses = true;
+  Interpolation interpolation = Interpolation::kAll;
+  /// Polish the ES result with a deterministic pattern search (refine_pose_with).
+  bool refine = true;
+  /// Motion prior (0 = off): the search maximises fitness * max_h exp(-m_h^2 / 2), m_h the
+  /// distance to motion hypothesis h in units of these sigmas: a tie-breaker for directions
+  /// the map does not constrain (corridors), wide enough not to fight a clear match.
+  double prior_sigma_xy = 0.3;          ///< metres
+  double prior_sigma_theta_deg = 10.0;  ///< degrees
+  /// Laser only: the prior also favours the previous pose (a stop). Off: the previous pose is
+  /// only in the initial population while another hypothesis says the robot moves.
+  bool prior_on_stop = false;
+
+  /// Throws std::invalid_argument naming the field (as "slam.<field>": the SLAM flags set it).
+  void validate() const;
+};
 
 /// What the motion prediction knows of the past.
 struct MotionState {
@@ -27,8 +79,9 @@ struct MotionState {
 
 /// The pose the search is centred on (odometry increment when switched on and present, else
 /// constant velocity or the previous pose, per config.prediction); `alternatives` (optional)
-/// receives the other motion hypotheses (see SlamConfig::motion_hypotheses, turn_hypotheses).
-Pose2 predict_pose(const SlamConfig& config, const MotionState& motion, const LaserScan& scan,
+/// receives the other motion hypotheses (see TrackingConfig::motion_hypotheses,
+/// turn_hypotheses).
+Pose2 predict_pose(const TrackingConfig& config, const MotionState& motion, const LaserScan& scan,
                    std::vector<Pose2>* alternatives);
 
 struct TrackResult {
@@ -39,11 +92,11 @@ struct TrackResult {
 /// Predicts, searches (ES with config.es from an initial population around the prediction and
 /// the motion hypotheses, times the motion prior when on) and polishes (config.refine) the pose
 /// of `points` (prepared from `scan`) in `map`. Draws from `rng`.
-TrackResult track_scan(const SlamConfig& config, const EvolutionStrategy& es, Rng& rng,
+TrackResult track_scan(const TrackingConfig& config, const EvolutionStrategy& es, Rng& rng,
                        const GridMap& map, const ScanPoints& points, const LaserScan& scan,
                        const MotionState& motion);
 
 /// The fitness options the SLAM uses (penalty per config, bilinear when `interpolate`).
-FitnessOptions slam_fitness_options(const SlamConfig& config, bool interpolate);
+FitnessOptions slam_fitness_options(const TrackingConfig& config, bool interpolate);
 
 }  // namespace esfleet

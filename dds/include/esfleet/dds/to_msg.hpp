@@ -13,9 +13,6 @@
 
 namespace esfleet::dds {
 
-/// Nanoseconds of CLOCK_REALTIME (the clock the latency figures use on both sides).
-std::int64_t realtime_ns();
-
 /// A whole tile (`tile.is_delta()` must be false); the payload is moved.
 msg::MapTile tile_to_msg(mapshare::TileMessage tile);
 /// A tile delta (`delta.is_delta()` must be true); the payload is moved.

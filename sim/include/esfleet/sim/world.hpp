@@ -21,7 +21,7 @@
 #include <string>
 #include <vector>
 
-#include "esfleet/core/map_io.hpp"
+#include "esfleet/core/ros_map_reader.hpp"
 
 namespace esfleet::sim {
 

@@ -1,0 +1,26 @@
+#pragma once
+// Whole-file I/O with the guarantees the map files and stats.json need: atomic replacement on
+// write, a size bound and precise messages on read.
+
+#include <cstdint>
+#include <string>
+
+namespace esfleet {
+
+/// Writes `contents` to `path` so that a reader sees the old file or the complete new one,
+/// never a partial file: writes "<path>.tmp.<pid>.<n>" in the same directory (n counts calls
+/// in this process), flushes and closes it, then renames it over `path`. No fsync: this
+/// protects against crashes of the writer and concurrent readers, not against power loss.
+/// The directory must exist. Throws std::runtime_error naming `path` on failure, after
+/// removing the temporary file.
+void write_file_atomically(const std::string& path, const std::string& contents);
+
+/// The whole of the regular file `path`, at most `max_bytes` long (a file that shrinks while
+/// being read yields what was there). Throws std::runtime_error
+/// "<path>: cannot read <what><context>: <reason>" when it is missing, not a regular file,
+/// larger than `max_bytes` or unreadable; `what` names the file's role ("map file"),
+/// `context` (optional) adds where it was named (" named in map.yaml").
+std::string read_whole_file(const std::string& path, std::uintmax_t max_bytes,
+                            const std::string& what, const std::string& context = {});
+
+}  // namespace esfleet

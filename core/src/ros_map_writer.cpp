@@ -1,0 +1,192 @@
+#include "esfleet/core/ros_map_writer.hpp"
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <filesystem>
+#include <stdexcept>
+#include <system_error>
+
+#include "esfleet/core/file_io.hpp"
+#include "map_raster.hpp"
+
+namespace esfleet {
+namespace {
+
+namespace fs = std::filesystem;
+using detail::GreyLevels;
+using detail::Raster;
+
+/// Margin on the thresholds when choosing levels: map_server implementations compute the
+/// occupancy of a level as (255 - x) / 255 or 1 - x / 255 (possibly via 16-bit quanta), which
+/// may differ in the last bit.
+constexpr double kThresholdMargin = 1e-9;
+constexpr int kPreferredUnknownLevel = 205;  // what ROS map_saver writes for unknown
+
+double occupancy_of_level(int x) { return 1.0 - static_cast<double>(x) / 255.0; }
+
+/// Shortest text that reads back as exactly `v`, always with a '.' in the mantissa so YAML 1.1
+/// readers (PyYAML) also see a float: "0.05", "-0.45", "1.0e-05", "3.0".
+std::string format_double(double v) {
+  char buf[64];
+  const auto [end, ec] = std::to_chars(buf, buf + sizeof buf, v);
+  std::string s(buf, ec == std::errc() ? end : buf);
+  if (!std::isfinite(v) || s.find('.') != std::string::npos) return s;
+  const std::size_t e = s.find('e');
+  if (e == std::string::npos) return s + ".0";
+  s.insert(e, ".0");
+  return s;
+}
+
+bool valid_map_name(const std::string& name) {
+  if (name.empty()) return false;
+  return std::all_of(name.begin(), name.end(), [](char c) {
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '.' ||
+           c == '_' || c == '-';
+  });
+}
+
+/// The grey level of a known cell (hit + err > 0); see save_ros_map.
+std::uint8_t level_of(std::uint64_t hit, std::uint64_t err, const OccupancyThresholds& th,
+                      const GreyLevels& g) {
+  const double p = static_cast<double>(hit) / static_cast<double>(hit + err);
+  if (p >= th.occupied) return g.occupied;
+  if (p <= th.free) return g.free;
+  int x = static_cast<int>(std::lround(255.0 * (1.0 - p)));
+  x = std::clamp(x, g.between_lo, g.between_hi);
+  if (x == g.unknown) {
+    if (x - 1 >= g.between_lo) {
+      --x;
+    } else if (x + 1 <= g.between_hi) {
+      ++x;
+    }
+  }
+  return static_cast<std::uint8_t>(x);
+}
+
+}  // namespace
+
+namespace detail {
+
+GreyLevels grey_levels(const OccupancyThresholds& th) {
+  if (!std::isfinite(th.free) || !std::isfinite(th.occupied) || !(th.free > 0.0) ||
+      !(th.free < th.occupied) || !(th.occupied < 1.0)) {
+    throw std::invalid_argument("occupancy thresholds need 0 < free < occupied < 1, got free " +
+                                format_double(th.free) + ", occupied " +
+                                format_double(th.occupied));
+  }
+  const double occ_hi = th.occupied + kThresholdMargin, occ_lo = th.occupied - kThresholdMargin;
+  const double free_lo = th.free - kThresholdMargin, free_hi = th.free + kThresholdMargin;
+  GreyLevels g;
+  if (!(occupancy_of_level(0) > occ_hi)) {
+    throw std::invalid_argument("occupancy threshold occupied " + format_double(th.occupied) +
+                                " is too close to 1: no grey level reads as occupied");
+  }
+  g.occupied = 0;
+  if (occupancy_of_level(254) < free_lo) {
+    g.free = 254;
+  } else if (occupancy_of_level(255) < free_lo) {
+    g.free = 255;
+  } else {
+    throw std::invalid_argument("occupancy threshold free " + format_double(th.free) +
+                                " is too close to 0: no grey level reads as free");
+  }
+  g.between_lo = -1;
+  for (int x = 0; x <= 255; ++x) {
+    const double o = occupancy_of_level(x);
+    if (o >= free_hi && o <= occ_lo) {
+      if (g.between_lo < 0) g.between_lo = x;
+      g.between_hi = x;
+    }
+  }
+  if (g.between_lo < 0) {
+    throw std::invalid_argument("occupancy thresholds free " + format_double(th.free) +
+                                " and occupied " + format_double(th.occupied) +
+                                " leave no grey level that reads as unknown");
+  }
+  g.unknown =
+      static_cast<std::uint8_t>(std::clamp(kPreferredUnknownLevel, g.between_lo, g.between_hi));
+  return g;
+}
+
+Raster render(const GridMap& map, const OccupancyThresholds& th, const GreyLevels& g,
+              const std::string& path) {
+  Raster r;
+  const GridMap::Bounds b = map.known_bounds();
+  if (!b.empty) {
+    const std::int64_t w = std::int64_t{b.max.x} - b.min.x + 1;
+    const std::int64_t h = std::int64_t{b.max.y} - b.min.y + 1;
+    if (static_cast<std::uint64_t>(w * h) > kMaxMapImagePixels) {
+      throw std::runtime_error("cannot write '" + path + "': the map's known cells span " +
+                               std::to_string(w) + "x" + std::to_string(h) +
+                               " cells, more than the " + std::to_string(kMaxMapImagePixels) +
+                               " pixels a map image may have");
+    }
+    r.width = static_cast<int>(w);
+    r.height = static_cast<int>(h);
+    r.min = b.min;
+    r.max_y = b.max.y;
+  }
+  const auto n = static_cast<std::size_t>(r.width) * static_cast<std::size_t>(r.height);
+  r.grey.assign(n, g.unknown);
+  r.known.assign(n, 0);
+  if (b.empty) return r;
+  const std::int32_t edge = map.tile_edge();
+  for (const TileKey& key : map.tile_keys()) {
+    const Tile* tile = map.find_tile(key);
+    for (std::int32_t ly = 0; ly < edge; ++ly) {
+      const std::int64_t row = std::int64_t{r.max_y} - (std::int64_t{key.ty} * edge + ly);
+      if (row < 0 || row >= r.height) continue;
+      for (std::int32_t lx = 0; lx < edge; ++lx) {
+        const auto i = static_cast<std::size_t>(ly * edge + lx);
+        const std::uint64_t h = tile->hit[i], e = tile->err[i];
+        if (h + e == 0) continue;
+        const std::int64_t col = std::int64_t{key.tx} * edge + lx - r.min.x;
+        if (col < 0 || col >= r.width) continue;
+        const auto j = static_cast<std::size_t>(row * r.width + col);
+        r.grey[j] = level_of(h, e, th, g);
+        r.known[j] = 1;
+      }
+    }
+  }
+  return r;
+}
+
+}  // namespace detail
+
+void save_ros_map(const GridMap& map, const std::string& dir, const std::string& name,
+                  const OccupancyThresholds& th) {
+  if (!valid_map_name(name)) {
+    throw std::invalid_argument("map name '" + name +
+                                "' must be non-empty and use only [A-Za-z0-9._-]");
+  }
+  const GreyLevels g = detail::grey_levels(th);
+  const fs::path base = fs::path(dir);
+  const std::string pgm_path = (base / (name + ".pgm")).string();
+  const std::string yaml_path = (base / (name + ".yaml")).string();
+  const Raster r = detail::render(map, th, g, pgm_path);
+
+  if (!dir.empty()) {
+    std::error_code ec;
+    fs::create_directories(base, ec);
+    if (ec) throw std::runtime_error("cannot create directory '" + dir + "': " + ec.message());
+  }
+
+  std::string pgm = "P5\n" + std::to_string(r.width) + " " + std::to_string(r.height) + "\n255\n";
+  pgm.append(r.grey.begin(), r.grey.end());
+  write_file_atomically(pgm_path, pgm);
+
+  const double cs = map.cell_size();
+  std::string yaml;
+  yaml += "image: " + name + ".pgm\n";
+  yaml += "mode: trinary\n";
+  yaml += "resolution: " + format_double(cs) + "\n";
+  yaml +=
+      "origin: [" + format_double(r.min.x * cs) + ", " + format_double(r.min.y * cs) + ", 0.0]\n";
+  yaml += "negate: 0\n";
+  yaml += "occupied_thresh: " + format_double(th.occupied) + "\n";
+  yaml += "free_thresh: " + format_double(th.free) + "\n";
+  write_file_atomically(yaml_path, yaml);
+}
+
+}  // namespace esfleet
