@@ -1,0 +1,154 @@
+// The per-scan tracking step shared by the leader's SLAM and the follower's localiser: the
+// motion prediction and its hypotheses, and the search that finds a scan's true pose in a map
+// from a perturbed start (seeded; a failure names its seed).
+
+#include "esfleet/core/tracking.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+#include <random>
+
+#include "esfleet/core/map_update.hpp"
+#include "synthetic_world.hpp"
+
+namespace esfleet {
+namespace {
+
+using testing::asymmetric_room;
+using testing::make_scan;
+
+MotionState moving(const Pose2& before, const Pose2& last, double dt = 0.2) {
+  MotionState m;
+  m.previous = TimedPose{0.0, before};
+  m.last = TimedPose{dt, last};
+  return m;
+}
+
+LaserScan scan_at(double stamp) {
+  LaserScan s;
+  s.stamp = stamp;
+  return s;
+}
+
+TEST(PredictPose, ConstantVelocityRepeatsTheLastMotionScaledByTime) {
+  TrackingConfig c;
+  const MotionState m = moving({0, 0, 0}, {0.1, 0, 0.05});
+  const Pose2 p = predict_pose(c, m, scan_at(0.4), nullptr);  // same interval again
+  EXPECT_NEAR(p.x, 0.1 + 0.1 * std::cos(0.05), 1e-9);
+  EXPECT_NEAR(p.y, 0.1 * std::sin(0.05), 1e-9);
+  EXPECT_NEAR(p.theta, 0.1, 1e-9);
+  // Twice the interval: twice the motion.
+  const Pose2 q = predict_pose(c, m, scan_at(0.6), nullptr);
+  EXPECT_NEAR(q.theta, 0.15, 1e-9);
+}
+
+TEST(PredictPose, ThePapersPreviousPoseAndTheFirstScanStayPut) {
+  TrackingConfig c;
+  c.prediction = MotionPrediction::kPreviousPose;
+  EXPECT_EQ(predict_pose(c, moving({0, 0, 0}, {0.1, 0, 0}), scan_at(0.4), nullptr),
+            (Pose2{0.1, 0, 0}));
+  TrackingConfig v;  // constant velocity, but nothing before the last pose
+  MotionState first;
+  first.last = TimedPose{0.0, {1, 2, 3}};
+  EXPECT_EQ(predict_pose(v, first, scan_at(0.2), nullptr), (Pose2{1, 2, 3}));
+}
+
+TEST(PredictPose, OdometryWhenOnAndPresentAndThePreviousPoseIsThenNoHypothesis) {
+  TrackingConfig c;
+  c.use_odometry = true;
+  MotionState m = moving({0, 0, 0}, {1, 1, 0});
+  m.odometry = Pose2{10, 10, 0};
+  LaserScan s = scan_at(0.4);
+  s.odometry = Pose2{10.5, 10, 0};  // 0.5 m forward since the last scan
+  std::vector<Pose2> alternatives;
+  const Pose2 p = predict_pose(c, m, s, &alternatives);
+  EXPECT_NEAR(p.x, 1.5, 1e-9);
+  EXPECT_NEAR(p.y, 1.0, 1e-9);
+  for (const Pose2& a : alternatives) EXPECT_FALSE(a == m.last.pose);
+  // Without odometry in the scan it falls back to constant velocity.
+  const Pose2 q = predict_pose(c, m, scan_at(0.4), nullptr);
+  EXPECT_NEAR(q.x, 2.0, 1e-9);
+}
+
+TEST(PredictPose, TurningAddsTurnHypothesesUnlessSwitchedOff) {
+  TrackingConfig c;
+  const MotionState m = moving({0, 0, 0}, {0.1, 0, deg_to_rad(5)});
+  std::vector<Pose2> with, without;
+  (void)predict_pose(c, m, scan_at(0.4), &with);
+  c.turn_hypotheses = false;
+  (void)predict_pose(c, m, scan_at(0.4), &without);
+  EXPECT_EQ(with.size(), without.size() + 4);  // +-1 and +-2 times the last turn
+  EXPECT_EQ(without.front(), m.last.pose);     // laser only: the previous pose is one
+}
+
+/// The map of the room from a grid of scans at known poses.
+GridMap room_map() {
+  const auto world = asymmetric_room();
+  GridMap map;
+  for (double x = 0.5; x < 12; x += 0.75) {
+    for (double y = 0.5; y < 8; y += 0.75) {
+      for (int k = 0; k < 4; ++k) {
+        const Pose2 p{x, y, k * std::numbers::pi / 2};
+        update_map(map, prepare_scan(make_scan(world, p)), p, MapUpdateConfig{});
+      }
+    }
+  }
+  return map;
+}
+
+TEST(TrackScan, FindsTheTruePoseFromAPerturbedPrediction) {
+  const auto world = asymmetric_room();
+  const GridMap map = room_map();
+  TrackingConfig c;
+  const EvolutionStrategy es(c.es);
+  for (unsigned seed = 1; seed <= 5; ++seed) {
+    std::mt19937 gen(seed);
+    std::uniform_real_distribution<double> x(2.0, 10.0), y(1.5, 6.5), th(-3.1, 3.1);
+    std::normal_distribution<double> off_xy(0.0, 0.08), off_th(0.0, deg_to_rad(3.0));
+    const Pose2 truth{x(gen), y(gen), th(gen)};
+    // The prediction (the last pose, no motion) is off by a few centimetres and degrees.
+    MotionState m;
+    m.last = TimedPose{
+        0.0,
+        {truth.x + off_xy(gen), truth.y + off_xy(gen), normalize_angle(truth.theta + off_th(gen))}};
+    const LaserScan scan = make_scan(world, truth, 0.2);
+    Rng rng(seed);
+    const TrackResult r = track_scan(c, es, rng, map, prepare_scan(scan), scan, m);
+    EXPECT_EQ(r.predicted, m.last.pose) << "seed " << seed;
+    EXPECT_LT(std::hypot(r.result.pose.x - truth.x, r.result.pose.y - truth.y), 0.05)  // a cell
+        << "seed " << seed;
+    EXPECT_LT(std::abs(normalize_angle(r.result.pose.theta - truth.theta)), deg_to_rad(1.0))
+        << "seed " << seed;
+    EXPECT_GT(r.result.value.agreement(), 0.9f) << "seed " << seed;
+  }
+}
+
+TEST(TrackScan, TheSameSeedGivesTheSamePose) {
+  const auto world = asymmetric_room();
+  const GridMap map = room_map();
+  const TrackingConfig c;
+  const EvolutionStrategy es(c.es);
+  MotionState m;
+  m.last = TimedPose{0.0, {5.05, 3.0, 0.4}};
+  const LaserScan scan = make_scan(world, {5.0, 3.0, 0.42}, 0.2);
+  Rng a(7), b(7);
+  const TrackResult ra = track_scan(c, es, a, map, prepare_scan(scan), scan, m);
+  const TrackResult rb = track_scan(c, es, b, map, prepare_scan(scan), scan, m);
+  EXPECT_EQ(ra.result.pose, rb.result.pose);
+}
+
+TEST(TrackingConfig, ValidationNamesTheField) {
+  TrackingConfig c;
+  c.init_sigma_xy = -1.0;
+  try {
+    c.validate();
+    FAIL() << "accepted a negative spread";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("init_sigma_xy"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace esfleet
