@@ -2,10 +2,7 @@
 
 #include <algorithm>
 #include <array>
-#include <cerrno>
 #include <cmath>
-#include <cstring>
-#include <fstream>
 #include <iterator>
 #include <optional>
 #include <stdexcept>
@@ -19,9 +16,7 @@
 namespace esfleet {
 namespace {
 
-using detail::finite_field;
-using detail::line_message;
-using detail::split_fields;
+using detail::read_number_rows;
 
 constexpr std::size_t kFields = 8;  // t1 t2 x y z roll pitch yaw
 
@@ -56,30 +51,11 @@ std::pair<double, double> mean_and_std(const std::vector<double>& values) {
 }  // namespace
 
 std::vector<Relation> read_relations(const std::string& path) {
-  errno = 0;
-  std::ifstream in(path);
-  if (!in) {
-    throw std::runtime_error("cannot open relations '" + path +
-                             "': " + (errno != 0 ? std::strerror(errno) : "unknown error"));
-  }
   std::vector<Relation> relations;
-  std::string line;
-  std::size_t line_no = 0;
-  std::vector<std::string_view> fields;
-  while (std::getline(in, line)) {
-    ++line_no;
-    split_fields(line, fields);
-    if (fields.empty() || fields[0].front() == '#') continue;
-    if (fields.size() != kFields) {
-      throw std::runtime_error(line_message(
-          path, line_no,
-          "expected 8 fields (t1 t2 x y z roll pitch yaw), got " + std::to_string(fields.size())));
-    }
-    std::array<double, kFields> v{};
-    for (std::size_t i = 0; i < kFields; ++i) v[i] = finite_field(fields, i, path, line_no);
-    relations.push_back({v[0], v[1], {v[2], v[3], normalize_angle(v[7])}});
-  }
-  if (in.bad()) throw std::runtime_error("cannot read relations '" + path + "': read error");
+  read_number_rows<kFields>(
+      path, "relations", "t1 t2 x y z roll pitch yaw", [&](const std::array<double, kFields>& v) {
+        relations.push_back({v[0], v[1], {v[2], v[3], normalize_angle(v[7])}});
+      });
   return relations;
 }
 

@@ -15,9 +15,7 @@
 namespace esfleet {
 namespace {
 
-using detail::finite_field;
-using detail::line_message;
-using detail::split_fields;
+using detail::read_number_rows;
 
 constexpr std::size_t kFields = 4;  // t x y theta
 
@@ -68,29 +66,11 @@ void write_trajectory(const std::string& path, const std::vector<TimedPose>& tra
 }
 
 std::vector<TimedPose> read_trajectory(const std::string& path) {
-  errno = 0;
-  std::ifstream in(path);
-  if (!in) {
-    throw std::runtime_error("cannot open trajectory '" + path +
-                             "': " + (errno != 0 ? std::strerror(errno) : "unknown error"));
-  }
   std::vector<TimedPose> trajectory;
-  std::string line;
-  std::size_t line_no = 0;
-  std::vector<std::string_view> fields;
-  while (std::getline(in, line)) {
-    ++line_no;
-    split_fields(line, fields);
-    if (fields.empty() || fields[0].front() == '#') continue;
-    if (fields.size() != kFields) {
-      throw std::runtime_error(line_message(
-          path, line_no, "expected 4 fields (t x y theta), got " + std::to_string(fields.size())));
-    }
-    std::array<double, kFields> v{};
-    for (std::size_t i = 0; i < kFields; ++i) v[i] = finite_field(fields, i, path, line_no);
-    trajectory.push_back({v[0], {v[1], v[2], v[3]}});
-  }
-  if (in.bad()) throw std::runtime_error("cannot read trajectory '" + path + "': read error");
+  read_number_rows<kFields>(path, "trajectory", "t x y theta",
+                            [&](const std::array<double, kFields>& v) {
+                              trajectory.push_back({v[0], {v[1], v[2], v[3]}});
+                            });
   return trajectory;
 }
 

@@ -10,7 +10,6 @@
 #include <numbers>
 #include <random>
 
-#include "esfleet/core/map_update.hpp"
 #include "synthetic_world.hpp"
 
 namespace esfleet {
@@ -83,24 +82,9 @@ TEST(PredictPose, TurningAddsTurnHypothesesUnlessSwitchedOff) {
   EXPECT_EQ(without.front(), m.last.pose);     // laser only: the previous pose is one
 }
 
-/// The map of the room from a grid of scans at known poses.
-GridMap room_map() {
-  const auto world = asymmetric_room();
-  GridMap map;
-  for (double x = 0.5; x < 12; x += 0.75) {
-    for (double y = 0.5; y < 8; y += 0.75) {
-      for (int k = 0; k < 4; ++k) {
-        const Pose2 p{x, y, k * std::numbers::pi / 2};
-        update_map(map, prepare_scan(make_scan(world, p)), p, MapUpdateConfig{});
-      }
-    }
-  }
-  return map;
-}
-
 TEST(TrackScan, FindsTheTruePoseFromAPerturbedPrediction) {
   const auto world = asymmetric_room();
-  const GridMap map = room_map();
+  const GridMap map = testing::map_of(world, 12, 8);
   TrackingConfig c;
   const EvolutionStrategy es(c.es);
   for (unsigned seed = 1; seed <= 5; ++seed) {
@@ -127,7 +111,7 @@ TEST(TrackScan, FindsTheTruePoseFromAPerturbedPrediction) {
 
 TEST(TrackScan, TheSameSeedGivesTheSamePose) {
   const auto world = asymmetric_room();
-  const GridMap map = room_map();
+  const GridMap map = testing::map_of(world, 12, 8);
   const TrackingConfig c;
   const EvolutionStrategy es(c.es);
   MotionState m;

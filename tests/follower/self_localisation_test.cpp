@@ -11,8 +11,6 @@
 #include <cmath>
 #include <numbers>
 
-#include "esfleet/core/map_update.hpp"
-#include "esfleet/core/scan_points.hpp"
 #include "esfleet/mapshare/tile_sender.hpp"
 #include "synthetic_world.hpp"
 
@@ -21,21 +19,6 @@ namespace {
 
 using esfleet::testing::asymmetric_room;
 using esfleet::testing::make_scan;
-
-/// The leader's map of the room: scans from a grid of poses over its free space.
-GridMap leader_map() {
-  const auto world = asymmetric_room();
-  GridMap map;
-  for (double x = 0.5; x < 12; x += 0.75) {
-    for (double y = 0.5; y < 8; y += 0.75) {
-      for (int k = 0; k < 4; ++k) {
-        const Pose2 p{x, y, k * std::numbers::pi / 2};
-        update_map(map, prepare_scan(make_scan(world, p)), p, MapUpdateConfig{});
-      }
-    }
-  }
-  return map;
-}
 
 /// A replica holding `map` as the leader would share it, with the localiser's pyramid.
 mapshare::MapReplica shared(GridMap& map, std::uint32_t epoch) {
@@ -56,7 +39,7 @@ Pose2 along(int i) {  // a straight drive through the room, 0.1 m per scan
 
 TEST(SelfLocalisation, WaitsForTheMapLocalisesInTheReplicaAndTracks) {
   const auto world = asymmetric_room();
-  GridMap map = leader_map();
+  GridMap map = esfleet::testing::map_of(world, 12, 8);
   LocaliserConfig c;
   c.seed = 2;
   SelfLocalisation loc(c);
@@ -98,7 +81,7 @@ TEST(SelfLocalisation, WaitsForTheMapLocalisesInTheReplicaAndTracks) {
 
 TEST(SelfLocalisation, ANewEpochOfTheLeadersMapStartsTheLocalisationAfresh) {
   const auto world = asymmetric_room();
-  GridMap map = leader_map();
+  GridMap map = esfleet::testing::map_of(world, 12, 8);
   LocaliserConfig c;
   c.seed = 3;
   SelfLocalisation loc(c);
