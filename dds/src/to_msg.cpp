@@ -24,6 +24,19 @@ Msg tile_fields(mapshare::TileMessage& t) {
   m.leader_stamp_ns(t.stamp_ns);
   return m;
 }
+
+/// The fields RobotPose and TruthPose share: the robot, the protocol and the timed pose.
+template <typename Msg>
+Msg timed_pose_fields(const std::string& robot_id, const TimedPose& pose) {
+  Msg m;
+  m.robot_id(robot_id);
+  m.protocol(msg::kProtocolVersion);
+  m.stamp(pose.stamp);
+  m.x(pose.pose.x);
+  m.y(pose.pose.y);
+  m.theta(pose.pose.theta);
+  return m;
+}
 }  // namespace
 
 msg::MapTile tile_to_msg(mapshare::TileMessage tile) { return tile_fields<msg::MapTile>(tile); }
@@ -57,13 +70,7 @@ msg::MapMeta meta_to_msg(const mapshare::MetaMessage& meta) {
 
 msg::RobotPose pose_to_msg(const std::string& robot_id, const TimedPose& pose, float fitness,
                            std::uint8_t status) {
-  msg::RobotPose m;
-  m.robot_id(robot_id);
-  m.protocol(msg::kProtocolVersion);
-  m.stamp(pose.stamp);
-  m.x(pose.pose.x);
-  m.y(pose.pose.y);
-  m.theta(pose.pose.theta);
+  msg::RobotPose m = timed_pose_fields<msg::RobotPose>(robot_id, pose);
   m.fitness(fitness);
   m.status(status);
   return m;
@@ -90,14 +97,7 @@ msg::LaserScanMsg scan_to_msg(const std::string& robot_id, std::uint32_t seq,
 }
 
 msg::TruthPose truth_to_msg(const std::string& robot_id, const TimedPose& pose) {
-  msg::TruthPose m;
-  m.robot_id(robot_id);
-  m.protocol(msg::kProtocolVersion);
-  m.stamp(pose.stamp);
-  m.x(pose.pose.x);
-  m.y(pose.pose.y);
-  m.theta(pose.pose.theta);
-  return m;
+  return timed_pose_fields<msg::TruthPose>(robot_id, pose);
 }
 
 }  // namespace esfleet::dds
