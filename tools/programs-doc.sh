@@ -74,9 +74,14 @@ The robot that maps. It runs the (μ+1)-ES SLAM over a CARMEN log (`--log`) or o
 robot publishes (`--scan-topic`) and, unless `--offline`, shares the map over DDS while it maps,
 then serves it to late joiners. It writes the map (ROS `map_server` PGM + YAML, a PNG with the
 trajectory), `trajectory.txt`, `map.digest` and `stats.json` into `--out`, and checkpoints for
-`--resume` (`docs/faults.md`). Every SLAM parameter is a flag and a key of `--config FILE`
-(YAML). Exit codes: 0 done; 1 the results could not be written, or no scan came; 2 bad usage or
-input (a flag, the log, the profile, a checkpoint that cannot be resumed); 130 stopped by
+`--resume` (`docs/faults.md`). `stats.json` has the time per scan, the SLAM's counters, every
+parameter and, when sharing, a `dds` section (bytes sent against republishing the whole map).
+With `--scan-topic` it maps that robot's scans in arrival order, as it would from a log (the
+same seed gives the trajectory of an `--offline` run); it ends after `--idle-exit` seconds
+without a scan (the map then complete), after `--max-scans`, or on Ctrl-C (the map not marked
+complete). Every SLAM parameter is a flag and a key of `--config FILE` (YAML).
+Exit codes: 0 done; 1 the results could not be written, or no scan came; 2 bad usage or input
+(a flag, the log, the profile, a checkpoint that cannot be resumed); 130 stopped by
 SIGINT/SIGTERM, results written.
 
 TEXT
@@ -89,7 +94,9 @@ A robot that receives the leader's map and keeps a copy whose counters equal the
 given its own scans (`--log` or `--scan-topic`) it localises itself in that map with no hint
 (or around `--hint`), tracks, relocalises when lost and publishes its pose
 (`docs/localisation.md`). The tracking step takes the leader's SLAM flags; the localisation
-flags are `--localise-*` and `--lost-*`. Exit codes: 0 done (also when stopped by
+flags are `--localise-*` and `--lost-*`. `--save-map DIR` writes the map files, `map.digest`
+and `stats.json` (tiles applied, stale and rejected, tile latency, time to the complete map, a
+`localisation` section, when the leader was lost and back) at exit and on SIGUSR1. Exit codes: 0 done (also when stopped by
 SIGINT/SIGTERM: it saves first); 1 the map or trajectory could not be saved; 2 bad usage or
 input; 3 `--timeout` reached (map saved).
 
