@@ -37,6 +37,7 @@ help_block() {
     echo "$0: $1 ${*:2} --help failed" >&2
     exit 1
   fi
+  # shellcheck disable=SC2016  # the backticks are the Markdown code fence, not a command
   printf '```text\n%s\n```\n' "$(printf '%s\n' "$text" | sed 's/[[:space:]]*$//')"
 }
 
