@@ -5,7 +5,7 @@
 namespace esfleet::dds {
 
 static_assert(mapshare::kProtocolVersion == msg::kProtocolVersion,
-              "mapshare/messages.hpp and idl/esfleet.idl must name the same protocol");
+              "mapshare's messages.hpp and idl/esfleet.idl must name the same protocol");
 
 std::int64_t realtime_ns() {
   timespec ts{};
