@@ -5,7 +5,7 @@
 // recorded log (optionally paced at the recorded speed), TopicScanSource from the DDS scan topic
 // of one robot. TopicScanSource's DDS callback only appends the received message to a locked
 // queue; conversion and everything that touches the SLAM happen on the thread calling next()
-// (docs/style.md rule 4).
+// (DDS callbacks never touch application state: docs/architecture.md, "Threads").
 
 #include <atomic>
 #include <chrono>

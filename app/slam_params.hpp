@@ -8,8 +8,8 @@
 
 namespace esfleet::app {
 
-/// Registers every SlamConfig field (names as in docs/parameters.md) and the reader's beam
-/// convention. The pointers must outlive the table.
+/// Registers every SlamConfig field (the names under "SLAM parameters" in docs/programs.md) and
+/// the reader's beam convention. The pointers must outlive the table.
 void add_slam_params(ParamTable& table, SlamConfig* slam, CarmenReaderOptions* reader);
 
 }  // namespace esfleet::app

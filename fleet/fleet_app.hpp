@@ -78,7 +78,7 @@ class FleetApp {
   double followers_start_s_ = 0.0;
   double window_start_s_ = -1.0;
 
-  // Filled by the DDS callbacks, emptied by watch() (docs/style.md rule 4).
+  // Filled by the DDS callbacks, emptied by watch() (docs/architecture.md, "Threads").
   mutable std::mutex mutex_;
   std::vector<PoseSample> poses_;
   std::vector<TruthSample> truths_;

@@ -1,9 +1,9 @@
 #pragma once
 // The follower's map-sharing transport: DDS callbacks hand received tiles, tile deltas and
 // summaries to the application thread through a locked queue; the application thread converts
-// them (dds/from_msg.hpp) and applies them to the protocol's MapReplica, counts what became of
-// them (mapshare::ReceiveStats), logs each kind of drop once per sending writer and measures the
-// tile latency (leader publish -> applied here).
+// them (dds/include/esfleet/dds/from_msg.hpp) and applies them to the protocol's MapReplica,
+// counts what became of them (mapshare::ReceiveStats), logs each kind of drop once per sending
+// writer and measures the tile latency (leader publish -> applied here).
 //
 // Hostile peers: a sample whose payload exceeds mapshare::kMaxTilePayloadBytes is not queued
 // (only its key, to count and log it), so the queue holds at most plausible tiles; everything

@@ -4,7 +4,8 @@
 // supersede whatever the dead one published after its last checkpoint (docs/faults.md).
 //
 // DIR/checkpoint/ holds
-//   map.<g>.bin, slam.<g>.bin  generation g of the snapshot (core/slam_snapshot.hpp): every
+//   map.<g>.bin, slam.<g>.bin  generation g of the snapshot
+//                              (core/include/esfleet/core/slam_snapshot.hpp): every
 //                              tile's counters and version; pose history, motion state, key
 //                              scans, pose graph, random generator
 //   manifest.json              written last (atomically): names generation g and its files with

@@ -1,6 +1,6 @@
 // esfleet-map-png: converts a map image (e.g. the leader's map.pgm) to a lossless 8-bit grey
 // PNG, pixel for pixel, and checks that the PNG reads back identical. Used to make the worlds
-// in data/worlds/ (README there); the YAML is copied with its `image:` line changed.
+// in data/worlds/ (data/worlds/README.md); the YAML is copied with its `image:` line changed.
 //
 // usage: esfleet-map-png IN.pgm OUT.png    exit 0 ok, 2 error (message names the file)
 

@@ -65,8 +65,8 @@ fdds::DomainParticipantQos participant_qos(const std::string& profile_file) {
 
   fdds::DomainParticipantFactory* factory = fdds::DomainParticipantFactory::get_instance();
   if (!builtin) {
-    // Pitfall 2 of docs/fastdds.md: load_profiles() (which also reads
-    // $FASTRTPS_DEFAULT_PROFILES_FILE) must run before get_default_participant_qos().
+    // load_profiles() (which also reads $FASTRTPS_DEFAULT_PROFILES_FILE) must run before
+    // get_default_participant_qos(), or Fast DDS 2.9.1 ignores the file's default profile.
     factory->load_profiles();
     builtin = factory->get_default_participant_qos();
   }
@@ -104,7 +104,7 @@ fdds::DomainParticipantQos participant_qos(const std::string& profile_file) {
 /// Turns on DDS Security with the files in `dir` (NodeOptions::secure_dir): PKI-DH
 /// authentication, AES-GCM-GMAC crypto, Access-Permissions access control. Every file is checked
 /// here first, because Fast DDS only prints a generic error to stdout and returns no participant.
-/// URIs must be file:///absolute (docs/fastdds.md).
+/// URIs must be file:///absolute (Fast DDS 2.9.1 refuses file:/absolute).
 void add_security_properties(fdds::DomainParticipantQos& qos, const std::string& dir) {
   namespace fs = std::filesystem;
   std::error_code ec;

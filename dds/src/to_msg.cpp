@@ -3,7 +3,7 @@
 namespace esfleet::dds {
 
 static_assert(mapshare::kProtocolVersion == msg::kProtocolVersion,
-              "mapshare/messages.hpp and idl/esfleet.idl must name the same protocol");
+              "mapshare's messages.hpp and idl/esfleet.idl must name the same protocol");
 
 namespace {
 /// The fields MapTile and MapTileDelta share.

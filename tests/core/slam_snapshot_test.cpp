@@ -1,6 +1,6 @@
-// Snapshots of a running SLAM (core/slam_snapshot.hpp): a Slam restored from a snapshot taken
-// mid-log continues exactly as the one that was never stopped, and damaged snapshots are
-// refused with a message naming the field.
+// Snapshots of a running SLAM (core/include/esfleet/core/slam_snapshot.hpp): a Slam restored
+// from a snapshot taken mid-log continues exactly as the one that was never stopped, and damaged
+// snapshots are refused with a message naming the field.
 #include "esfleet/core/slam_snapshot.hpp"
 
 #include <gtest/gtest.h>

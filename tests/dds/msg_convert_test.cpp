@@ -1,6 +1,6 @@
 // Conversion between our values and the wire types of idl/esfleet.idl, both directions
-// (dds/to_msg.hpp, dds/from_msg.hpp): map messages cross unchanged, scans and true poses that
-// cannot be used are refused naming the field.
+// (dds/include/esfleet/dds/to_msg.hpp, from_msg.hpp): map messages cross unchanged, scans and
+// true poses that cannot be used are refused naming the field.
 
 #include <gtest/gtest.h>
 

@@ -7,13 +7,15 @@
 // Threading: the callback runs on a Fast DDS listener thread (the DataReader's
 // on_data_available), never on the thread that created the reader. It must be short, must not
 // block on DDS, and must not touch application state without synchronisation: hand the sample
-// over through a locked queue (docs/style.md rule 4). Callbacks of one reader never overlap.
+// over through a locked queue (docs/architecture.md, "Threads"). Callbacks of one reader never
+// overlap.
 // A callback may write with a Writer, but must not create or destroy readers, writers or the
 // Node (that waits for the callback itself). Exceptions thrown by the callback are caught and
 // counted (callback_errors()).
 //
 // The listener sits on the DataReader, not on the participant: a participant listener with the
-// default status mask would swallow on_data_available (docs/fastdds.md, pitfall 1).
+// default status mask would swallow on_data_available, and the reader's callback would never
+// run (Fast DDS 2.9.1).
 
 #include <chrono>
 #include <cstdint>

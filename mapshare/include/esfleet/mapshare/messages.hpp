@@ -1,8 +1,8 @@
 #pragma once
 // The map-sharing protocol's messages in plain C++ (no DDS): what the leader's TileSender makes
 // of its map and what a follower's MapReplica applies. dds/ carries them as the wire types of
-// idl/esfleet.idl, field for field (dds/to_msg.hpp, dds/from_msg.hpp); the field comments there
-// are the wire contract.
+// idl/esfleet.idl, field for field (dds/include/esfleet/dds/to_msg.hpp, from_msg.hpp); the field
+// comments there are the wire contract.
 //
 // The protocol (docs/architecture.md):
 //  - every tile has a version that grows with every change; a message carries the tile whole
