@@ -1,5 +1,5 @@
 #pragma once
-// The localiser's global search (ours, after the paper's; ../docs/localisation.md has the
+// The localiser's global search (ours, after the paper's; docs/localisation.md has the
 // measurements): candidate poses for one scan over the known free space of a map and all
 // headings, or within a box around a pose hint. No prior knowledge is needed.
 //

@@ -1,6 +1,6 @@
 #pragma once
 // The follower's self-localisation in a received map (ours, after the authors' multi-robot
-// work; ../docs/localisation.md has the measurements):
+// work; docs/localisation.md has the measurements):
 //
 //  1. Global search (no prior knowledge; global_search.hpp): candidate poses over the known
 //     free space of the map and all headings, or around a hint.
