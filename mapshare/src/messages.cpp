@@ -16,14 +16,14 @@ const Tile& tile_or_throw(const GridMap& map, TileKey key) {
   return *tile;
 }
 
-/// Identity, key, version and layout of tile `key`, and `hit`/`err` encoded as the payload.
-TileMessage tile_message(const GridMap& map, TileKey key, const Tile& tile, const MapIdentity& id,
+/// Identity, key, version and layout of `tile`, and `hit`/`err` encoded as the payload.
+TileMessage tile_message(const GridMap& map, const Tile& tile, const MapIdentity& id,
                          std::span<const std::uint32_t> hit, std::span<const std::uint32_t> err,
                          TileEncoding encoding, std::uint64_t stamp_ns) {
   TileMessage m;
   m.map_id = id.map_id;
-  m.tx = key.tx;
-  m.ty = key.ty;
+  m.tx = tile.key.tx;
+  m.ty = tile.key.ty;
   m.epoch = id.epoch;
   m.version = tile.version;
   m.cell_size = static_cast<float>(map.cell_size());
@@ -37,17 +37,28 @@ TileMessage tile_message(const GridMap& map, TileKey key, const Tile& tile, cons
 }
 }  // namespace
 
+TileMessage whole_tile_message(const GridMap& map, const Tile& tile, const MapIdentity& id,
+                               TileEncoding encoding, std::uint64_t stamp_ns) {
+  return tile_message(map, tile, id, tile.hit, tile.err, encoding, stamp_ns);
+}
+
 TileMessage whole_tile_message(const GridMap& map, TileKey key, const MapIdentity& id,
                                TileEncoding encoding, std::uint64_t stamp_ns) {
-  const Tile& tile = tile_or_throw(map, key);
-  return tile_message(map, key, tile, id, tile.hit, tile.err, encoding, stamp_ns);
+  return whole_tile_message(map, tile_or_throw(map, key), id, encoding, stamp_ns);
 }
 
 TileMessage delta_tile_message(const GridMap& map, TileKey key, std::uint64_t base_version,
                                std::span<const std::uint32_t> base_hit,
                                std::span<const std::uint32_t> base_err, const MapIdentity& id,
                                TileEncoding encoding, std::uint64_t stamp_ns) {
-  const Tile& tile = tile_or_throw(map, key);
+  return delta_tile_message(map, tile_or_throw(map, key), base_version, base_hit, base_err, id,
+                            encoding, stamp_ns);
+}
+
+TileMessage delta_tile_message(const GridMap& map, const Tile& tile, std::uint64_t base_version,
+                               std::span<const std::uint32_t> base_hit,
+                               std::span<const std::uint32_t> base_err, const MapIdentity& id,
+                               TileEncoding encoding, std::uint64_t stamp_ns) {
   if (base_hit.size() != tile.hit.size() || base_err.size() != tile.err.size()) {
     throw std::invalid_argument("delta base has " + std::to_string(base_hit.size()) +
                                 " cells, the tile " + std::to_string(tile.hit.size()));
@@ -61,7 +72,7 @@ TileMessage delta_tile_message(const GridMap& map, TileKey key, std::uint64_t ba
     dhit[i] = tile.hit[i] - base_hit[i];  // modulo 2^32: counters may also decrease
     derr[i] = tile.err[i] - base_err[i];
   }
-  TileMessage m = tile_message(map, key, tile, id, dhit, derr, encoding, stamp_ns);
+  TileMessage m = tile_message(map, tile, id, dhit, derr, encoding, stamp_ns);
   m.base_version = base_version;
   return m;
 }
@@ -77,15 +88,15 @@ MetaMessage meta_message(const GridMap& map, const MapIdentity& id, bool complet
   if (!keys.empty()) {
     m.min_tx = m.max_tx = keys.front().tx;
     m.min_ty = m.max_ty = keys.front().ty;
-    for (const TileKey k : keys) {
-      m.min_tx = std::min(m.min_tx, k.tx);
-      m.max_tx = std::max(m.max_tx, k.tx);
-      m.min_ty = std::min(m.min_ty, k.ty);
-      m.max_ty = std::max(m.max_ty, k.ty);
-    }
+  }
+  for (const TileKey k : keys) {  // one pass: bounds and the version sum (map_version)
+    m.min_tx = std::min(m.min_tx, k.tx);
+    m.max_tx = std::max(m.max_tx, k.tx);
+    m.min_ty = std::min(m.min_ty, k.ty);
+    m.max_ty = std::max(m.max_ty, k.ty);
+    m.map_version += map.find_tile(k)->version;
   }
   m.tile_count = static_cast<std::uint32_t>(keys.size());
-  m.map_version = map_version(map);
   m.complete = complete;
   m.scans = scans;
   m.params = std::move(params);

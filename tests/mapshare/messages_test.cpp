@@ -23,7 +23,7 @@ TEST(MapMessages, ADeltaNeedsAnOlderBaseOfTheTilesSize) {
   const std::vector<std::uint32_t> small(10);
   EXPECT_THROW(delta_tile_message(leader, k, 0, small, small, {}, TileEncoding::kMedZlib, 1),
                std::invalid_argument);
-  EXPECT_THROW(whole_tile_message(leader, {900, 900}, {}, TileEncoding::kMedZlib, 1),
+  EXPECT_THROW(whole_tile_message(leader, TileKey{900, 900}, {}, TileEncoding::kMedZlib, 1),
                std::invalid_argument);
 }
 

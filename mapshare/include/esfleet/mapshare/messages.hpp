@@ -88,15 +88,23 @@ constexpr std::size_t max_payload_bytes(std::size_t cells) {
 /// samples before queueing them.
 inline constexpr std::size_t kMaxTilePayloadBytes = max_payload_bytes(kMaxTileCells);
 
-/// Tile `key` of `map` (which must hold it) whole, its payload encoded with `encoding`; stamped
-/// `stamp_ns`. Throws std::invalid_argument for a missing tile.
+/// `tile` (one of `map`'s: its layout comes from the map) whole, its payload encoded with
+/// `encoding`; stamped `stamp_ns`.
+TileMessage whole_tile_message(const GridMap& map, const Tile& tile, const MapIdentity& id,
+                               TileEncoding encoding, std::uint64_t stamp_ns);
+/// The same for tile `key` of `map`. Throws std::invalid_argument for a missing tile.
 TileMessage whole_tile_message(const GridMap& map, TileKey key, const MapIdentity& id,
                                TileEncoding encoding, std::uint64_t stamp_ns);
 
-/// Tile `key` of `map` as a delta against the counters `base_hit`, `base_err` it had at
+/// `tile` (one of `map`'s) as a delta against the counters `base_hit`, `base_err` it had at
 /// `base_version` (< the tile's version): the per-cell differences now - base (modulo 2^32).
-/// Throws std::invalid_argument for a missing tile, base spans of the wrong size or a base
-/// version not older than the tile's.
+/// Throws std::invalid_argument for base spans of the wrong size or a base version not older
+/// than the tile's.
+TileMessage delta_tile_message(const GridMap& map, const Tile& tile, std::uint64_t base_version,
+                               std::span<const std::uint32_t> base_hit,
+                               std::span<const std::uint32_t> base_err, const MapIdentity& id,
+                               TileEncoding encoding, std::uint64_t stamp_ns);
+/// The same for tile `key` of `map`; also throws std::invalid_argument for a missing tile.
 TileMessage delta_tile_message(const GridMap& map, TileKey key, std::uint64_t base_version,
                                std::span<const std::uint32_t> base_hit,
                                std::span<const std::uint32_t> base_err, const MapIdentity& id,

@@ -70,9 +70,9 @@ class TileSender {
     std::uint64_t deltas_since_full = 0;  ///< deltas sent since that whole tile
     double full_stamp = 0.0;              ///< scan time of that whole tile
   };
-  /// The message for `tile` (key `k`) whole or as a delta against `sent`; updates `sent`.
-  TileMessage make(const GridMap& map, TileKey k, const Tile& tile, Sent& sent, bool whole,
-                   double stamp, std::uint64_t now_ns);
+  /// The message for `tile` whole or as a delta against `sent`; updates `sent`.
+  TileMessage make(const GridMap& map, const Tile& tile, Sent& sent, bool whole, double stamp,
+                   std::uint64_t now_ns);
 
   MapIdentity id_;
   TileEncoding encoding_;
