@@ -66,6 +66,14 @@ std::uint8_t level_of(std::uint64_t hit, std::uint64_t err, const OccupancyThres
 
 }  // namespace
 
+std::int8_t ros_cell_value(std::uint64_t hit, std::uint64_t err, const OccupancyThresholds& th) {
+  if (hit + err == 0) return -1;
+  const double p = static_cast<double>(hit) / static_cast<double>(hit + err);
+  if (p >= th.occupied) return 100;
+  if (p <= th.free) return 0;
+  return -1;
+}
+
 namespace detail {
 
 GreyLevels grey_levels(const OccupancyThresholds& th) {

@@ -28,4 +28,10 @@ struct OccupancyThresholds {
   double free = 0.196;     ///< p <= free is a free cell (ROS free_thresh)
 };
 
+/// The ROS occupancy value of a cell with counters (hit, err): what map_server reads back from
+/// the cell's grey level in the saved map (mode trinary) and what the leader publishes on /map.
+/// -1 unknown (hit + err == 0, or p strictly between the thresholds), 0 free (p <= th.free),
+/// 100 occupied (p >= th.occupied), p = hit / (hit + err).
+std::int8_t ros_cell_value(std::uint64_t hit, std::uint64_t err, const OccupancyThresholds& th = {});
+
 }  // namespace esfleet
