@@ -1,7 +1,8 @@
-// Writer<Msg> and Reader<Msg> for the five esfleet topics: QoS per topic, DataWriter/DataReader
-// creation and deletion, the DataReader listener that hands samples to the callback, counters.
-// One of the two translation units of esfleet_dds that include Fast DDS headers; the templates
-// are instantiated here for the five message types only.
+// Writer<Msg> and Reader<Msg> for the esfleet topics and the ROS 2 topics: QoS per topic,
+// DataWriter/DataReader creation and deletion, the DataReader listener that hands samples to the
+// callback, counters. One of the two translation units of esfleet_dds that include Fast DDS
+// headers; the templates are instantiated here for the esfleet message types and the ROS 2 types of
+// ros.hpp only.
 
 #include <atomic>
 #include <chrono>
@@ -11,6 +12,7 @@
 #include <thread>
 
 #include <esfleet/msg/esfleetPubSubTypes.h>
+#include <esfleet/msg/ros2PubSubTypes.h>
 #include <fastdds/rtps/common/InstanceHandle.h>
 #include <fastdds/dds/core/status/PublicationMatchedStatus.hpp>
 #include <fastdds/dds/core/status/SubscriptionMatchedStatus.hpp>
@@ -33,62 +35,108 @@ namespace {
 namespace fdds = eprosima::fastdds::dds;
 using eprosima::fastrtps::types::ReturnCode_t;
 
-/// Topic and QoS of each message type.
+/// Topic and QoS of each message type. The esfleet types carry a protocol field and are
+/// reliable; the ROS 2 types (ros.hpp) have no protocol field and a QoS of ROS's.
+struct EsfleetTraits {
+  static constexpr bool kHasProtocol = true;
+  static constexpr bool kReliable = true;
+};
+struct RosTraits {
+  static constexpr bool kHasProtocol = false;  // topic and QoS per endpoint: ros.hpp
+};
 template <class Msg>
 struct Traits;
 template <>
-struct Traits<msg::MapTile> {
+struct Traits<msg::MapTile> : EsfleetTraits {
   using PubSub = msg::MapTilePubSubType;
   static constexpr std::string_view kTopic = kTileTopic;
   static constexpr bool kTransientLocal = true;
   static constexpr std::int32_t kDepth = 1;
 };
 template <>
-struct Traits<msg::MapTileDelta> {
+struct Traits<msg::MapTileDelta> : EsfleetTraits {
   using PubSub = msg::MapTileDeltaPubSubType;
   static constexpr std::string_view kTopic = kTileDeltaTopic;
   static constexpr bool kTransientLocal = false;
   static constexpr std::int32_t kDepth = 64;  // a gap in a tile's chain costs a full tile
 };
 template <>
-struct Traits<msg::MapMeta> {
+struct Traits<msg::MapMeta> : EsfleetTraits {
   using PubSub = msg::MapMetaPubSubType;
   static constexpr std::string_view kTopic = kMetaTopic;
   static constexpr bool kTransientLocal = true;
   static constexpr std::int32_t kDepth = 1;
 };
 template <>
-struct Traits<msg::RobotPose> {
+struct Traits<msg::RobotPose> : EsfleetTraits {
   using PubSub = msg::RobotPosePubSubType;
   static constexpr std::string_view kTopic = kPoseTopic;
   static constexpr bool kTransientLocal = false;
   static constexpr std::int32_t kDepth = 1;
 };
 template <>
-struct Traits<msg::LaserScanMsg> {
+struct Traits<msg::LaserScanMsg> : EsfleetTraits {
   using PubSub = msg::LaserScanMsgPubSubType;
   static constexpr std::string_view kTopic = kScanTopic;
   static constexpr bool kTransientLocal = false;
   static constexpr std::int32_t kDepth = 50;
 };
 template <>
-struct Traits<msg::TruthPose> {
+struct Traits<msg::TruthPose> : EsfleetTraits {
   using PubSub = msg::TruthPosePubSubType;
   static constexpr std::string_view kTopic = kTruthTopic;
   static constexpr bool kTransientLocal = false;
   static constexpr std::int32_t kDepth = 50;
 };
 
-/// Sets the QoS both sides share: reliable, durability and KEEP_LAST depth per topic, and
-/// unlimited resource limits. The default max_instances = 10 makes writes to an 11th key fail
+template <>
+struct Traits<nav_msgs::msg::OccupancyGrid> : RosTraits {
+  using PubSub = nav_msgs::msg::OccupancyGridPubSubType;
+};
+template <>
+struct Traits<map_msgs::msg::OccupancyGridUpdate> : RosTraits {
+  using PubSub = map_msgs::msg::OccupancyGridUpdatePubSubType;
+};
+template <>
+struct Traits<geometry_msgs::msg::PoseWithCovarianceStamped> : RosTraits {
+  using PubSub = geometry_msgs::msg::PoseWithCovarianceStampedPubSubType;
+};
+template <>
+struct Traits<tf2_msgs::msg::TFMessage> : RosTraits {
+  using PubSub = tf2_msgs::msg::TFMessagePubSubType;
+};
+template <>
+struct Traits<sensor_msgs::msg::LaserScan> : RosTraits {
+  using PubSub = sensor_msgs::msg::LaserScanPubSubType;
+};
+template <>
+struct Traits<nav_msgs::msg::Odometry> : RosTraits {
+  using PubSub = nav_msgs::msg::OdometryPubSubType;
+};
+
+/// The endpoint of an esfleet type's own topic and QoS. The ROS 2 types have none: their
+/// endpoints name topic and QoS (ros.hpp).
+template <class Msg>
+TopicQos default_endpoint() {
+  using T = Traits<Msg>;
+  if constexpr (T::kHasProtocol) {
+    return TopicQos{std::string(T::kTopic), T::kReliable, T::kTransientLocal, T::kDepth};
+  } else {
+    throw std::logic_error("esfleet::dds: a ROS 2 endpoint needs its topic and QoS (ros.hpp)");
+  }
+}
+
+/// Sets the QoS both sides share: reliability, durability and KEEP_LAST depth of the endpoint,
+/// and unlimited resource limits. The default max_instances = 10 makes writes to an 11th key fail
 /// silently; once one limit is unlimited, max_samples must be too or the entity is not created.
-template <class Msg, class Qos>
-void set_common_qos(Qos& qos) {
-  qos.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
-  qos.durability().kind = Traits<Msg>::kTransientLocal ? fdds::TRANSIENT_LOCAL_DURABILITY_QOS
-                                                       : fdds::VOLATILE_DURABILITY_QOS;
+template <class Qos>
+void set_common_qos(Qos& qos, const TopicQos& e) {
+  qos.reliability().kind =
+      e.reliable ? fdds::RELIABLE_RELIABILITY_QOS : fdds::BEST_EFFORT_RELIABILITY_QOS;
+  qos.durability().kind =
+      e.transient_local ? fdds::TRANSIENT_LOCAL_DURABILITY_QOS : fdds::VOLATILE_DURABILITY_QOS;
   qos.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
-  qos.history().depth = Traits<Msg>::kDepth;
+  qos.history().depth = e.depth;
   qos.resource_limits().max_samples = 0;
   qos.resource_limits().max_instances = 0;
   qos.resource_limits().max_samples_per_instance = 0;
@@ -117,6 +165,7 @@ namespace detail {
 template <class Msg>
 struct WriterImpl {
   std::shared_ptr<NodeImpl> node;
+  std::string topic_name;
   typename Traits<Msg>::PubSub type;     ///< for getSerializedSizeProvider
   fdds::Publisher* publisher = nullptr;  ///< the node's publisher of the writer's partition
   fdds::DataWriter* writer = nullptr;
@@ -129,6 +178,7 @@ struct WriterImpl {
 template <class Msg>
 struct ReaderImpl : fdds::DataReaderListener {
   std::shared_ptr<NodeImpl> node;
+  std::string topic_name;
   typename Traits<Msg>::PubSub type;  ///< for getSerializedSizeProvider
   typename Reader<Msg>::Callback callback;
   fdds::Subscriber* subscriber = nullptr;  ///< the node's subscriber of the reader's partition
@@ -151,9 +201,11 @@ struct ReaderImpl : fdds::DataReaderListener {
     fdds::SampleInfo info;
     while (r->take_next_sample(&sample, &info) == ReturnCode_t::RETCODE_OK) {
       if (!info.valid_data) continue;  // dispose / unregister notifications carry no data
-      if (sample.protocol() != kProtocolVersion) {
-        mismatches.fetch_add(1, std::memory_order_relaxed);
-        continue;
+      if constexpr (Traits<Msg>::kHasProtocol) {
+        if (sample.protocol() != kProtocolVersion) {
+          mismatches.fetch_add(1, std::memory_order_relaxed);
+          continue;
+        }
       }
       SampleMeta meta;
       if (info.publication_handle != last_writer || last_writer_guid.empty()) {
@@ -187,25 +239,30 @@ struct ReaderImpl : fdds::DataReaderListener {
 
 template <class Msg>
 Writer<Msg>::Writer(Node& node, const std::string& partition)
+    : Writer(node, default_endpoint<Msg>(), partition) {}
+
+template <class Msg>
+Writer<Msg>::Writer(Node& node, const TopicQos& endpoint, const std::string& partition)
     : impl_(std::make_unique<detail::WriterImpl<Msg>>()) {
   using T = Traits<Msg>;
   impl_->node = node.impl_;
+  impl_->topic_name = endpoint.topic;
   detail::NodeImpl& n = *impl_->node;
   std::lock_guard lock(n.entity_mutex);
   if (n.participant == nullptr) {
-    throw std::runtime_error("esfleet::dds: cannot create a writer of " + std::string(T::kTopic) +
+    throw std::runtime_error("esfleet::dds: cannot create a writer of " + endpoint.topic +
                              ": the node is closed");
   }
-  fdds::Topic* topic = n.topic(T::kTopic, fdds::TypeSupport(new typename T::PubSub()));
+  fdds::Topic* topic = n.topic(endpoint.topic, fdds::TypeSupport(new typename T::PubSub()));
   fdds::Publisher* publisher = impl_->publisher = n.publisher_in(partition);
   fdds::DataWriterQos qos = publisher->get_default_datawriter_qos();
-  set_common_qos<Msg>(qos);
+  set_common_qos(qos, endpoint);
   // Heartbeat every 100 ms (default 3 s): a lost last sample is repaired within ~100 ms.
   qos.reliable_writer_qos().times.heartbeatPeriod = eprosima::fastrtps::Duration_t(0, 100'000'000);
   impl_->writer = publisher->create_datawriter(topic, qos, nullptr, fdds::StatusMask::none());
   if (impl_->writer == nullptr) {
-    throw std::runtime_error("esfleet::dds: cannot create the DataWriter of " +
-                             std::string(T::kTopic) + partition_suffix(partition) +
+    throw std::runtime_error("esfleet::dds: cannot create the DataWriter of " + endpoint.topic +
+                             partition_suffix(partition) +
                              (n.secure ? " (with security: do the permissions allow it?)" : ""));
   }
 }
@@ -226,7 +283,9 @@ bool Writer<Msg>::write(const Msg& sample) {
     impl_->failures.fetch_add(1, std::memory_order_relaxed);
     return false;
   };
-  if (sample.protocol() != kProtocolVersion) return fail();
+  if constexpr (Traits<Msg>::kHasProtocol) {
+    if (sample.protocol() != kProtocolVersion) return fail();
+  }
   // Fast DDS takes a non-const pointer but only reads the sample.
   void* data = const_cast<Msg*>(&sample);
   std::shared_lock lock(impl_->node->state_mutex);
@@ -239,7 +298,7 @@ bool Writer<Msg>::write(const Msg& sample) {
 
 template <class Msg>
 std::string_view Writer<Msg>::topic_name() const {
-  return Traits<Msg>::kTopic;
+  return impl_->topic_name;
 }
 
 template <class Msg>
@@ -286,30 +345,36 @@ bool Writer<Msg>::wait_for_acknowledgments(std::chrono::milliseconds timeout) co
 
 template <class Msg>
 Reader<Msg>::Reader(Node& node, Callback callback, const std::string& partition)
+    : Reader(node, std::move(callback), default_endpoint<Msg>(), partition) {}
+
+template <class Msg>
+Reader<Msg>::Reader(Node& node, Callback callback, const TopicQos& endpoint,
+                    const std::string& partition)
     : impl_(std::make_unique<detail::ReaderImpl<Msg>>()) {
   using T = Traits<Msg>;
   if (!callback) {
-    throw std::invalid_argument("esfleet::dds: the callback of a reader of " +
-                                std::string(T::kTopic) + " is empty");
+    throw std::invalid_argument("esfleet::dds: the callback of a reader of " + endpoint.topic +
+                                " is empty");
   }
   impl_->callback = std::move(callback);
   impl_->node = node.impl_;
+  impl_->topic_name = endpoint.topic;
   detail::NodeImpl& n = *impl_->node;
   std::lock_guard lock(n.entity_mutex);
   if (n.participant == nullptr) {
-    throw std::runtime_error("esfleet::dds: cannot create a reader of " + std::string(T::kTopic) +
+    throw std::runtime_error("esfleet::dds: cannot create a reader of " + endpoint.topic +
                              ": the node is closed");
   }
-  fdds::Topic* topic = n.topic(T::kTopic, fdds::TypeSupport(new typename T::PubSub()));
+  fdds::Topic* topic = n.topic(endpoint.topic, fdds::TypeSupport(new typename T::PubSub()));
   fdds::Subscriber* subscriber = impl_->subscriber = n.subscriber_in(partition);
   fdds::DataReaderQos qos = subscriber->get_default_datareader_qos();
-  set_common_qos<Msg>(qos);
+  set_common_qos(qos, endpoint);
   // The listener is attached to the DataReader with only data_available enabled (pitfall 1).
   impl_->reader =
       subscriber->create_datareader(topic, qos, impl_.get(), fdds::StatusMask::data_available());
   if (impl_->reader == nullptr) {
-    throw std::runtime_error("esfleet::dds: cannot create the DataReader of " +
-                             std::string(T::kTopic) + partition_suffix(partition) +
+    throw std::runtime_error("esfleet::dds: cannot create the DataReader of " + endpoint.topic +
+                             partition_suffix(partition) +
                              (n.secure ? " (with security: do the permissions allow it?)" : ""));
   }
 }
@@ -330,7 +395,7 @@ Reader<Msg>::~Reader() {
 
 template <class Msg>
 std::string_view Reader<Msg>::topic_name() const {
-  return Traits<Msg>::kTopic;
+  return impl_->topic_name;
 }
 
 template <class Msg>
@@ -379,5 +444,17 @@ template class Reader<msg::MapMeta>;
 template class Reader<msg::RobotPose>;
 template class Reader<msg::LaserScanMsg>;
 template class Reader<msg::TruthPose>;
+template class Writer<nav_msgs::msg::OccupancyGrid>;
+template class Writer<map_msgs::msg::OccupancyGridUpdate>;
+template class Writer<geometry_msgs::msg::PoseWithCovarianceStamped>;
+template class Writer<tf2_msgs::msg::TFMessage>;
+template class Writer<sensor_msgs::msg::LaserScan>;
+template class Writer<nav_msgs::msg::Odometry>;
+template class Reader<nav_msgs::msg::OccupancyGrid>;
+template class Reader<map_msgs::msg::OccupancyGridUpdate>;
+template class Reader<geometry_msgs::msg::PoseWithCovarianceStamped>;
+template class Reader<tf2_msgs::msg::TFMessage>;
+template class Reader<sensor_msgs::msg::LaserScan>;
+template class Reader<nav_msgs::msg::Odometry>;
 
 }  // namespace esfleet::dds

@@ -47,7 +47,8 @@ struct ReaderImpl;
 }
 
 /// Subscribes to one esfleet topic (the topic and QoS follow from Msg) and calls back per sample.
-/// Samples whose protocol() != kProtocolVersion are dropped and counted, never delivered.
+/// Samples of an esfleet type whose protocol() != kProtocolVersion are dropped and counted,
+/// never delivered (the ROS 2 types have no protocol field).
 template <class Msg>
 class Reader {
  public:
@@ -61,6 +62,9 @@ class Reader {
   /// one included). Throws std::invalid_argument for an empty callback and std::runtime_error
   /// naming the topic if Fast DDS refuses (with security: also when the permissions forbid it).
   Reader(Node& node, Callback callback, const std::string& partition = {});
+  /// The same on the topic and with the QoS of `endpoint` instead of Msg's own (ros.hpp).
+  Reader(Node& node, Callback callback, const TopicQos& endpoint,
+         const std::string& partition = {});
   /// Stops the callbacks (waits for a running one to finish), then deletes the DataReader.
   /// Must not be called from inside the callback.
   ~Reader();

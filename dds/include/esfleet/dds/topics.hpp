@@ -11,6 +11,7 @@
 //   esfleet/sim/truth        msg::TruthPose     simulator -> evaluation only, keyed robot_id
 
 #include <cstdint>
+#include <string>
 #include <string_view>
 
 namespace esfleet::dds {
@@ -45,5 +46,15 @@ inline constexpr std::string_view kScanTopic = "esfleet/robots/scan";
 /// True poses of simulated robots (msg::TruthPose): reliable, volatile, keep last 50 per robot.
 /// For evaluation only: SLAM and localisation never subscribe to it.
 inline constexpr std::string_view kTruthTopic = "esfleet/sim/truth";
+
+/// One endpoint's DDS topic name and QoS. Each esfleet message type has its own (writer.hpp);
+/// the ROS 2 endpoints (ros.hpp) pick theirs per topic, as ROS 2 tools expect them. Resource
+/// limits are always unlimited; writers send heartbeats every 100 ms.
+struct TopicQos {
+  std::string topic;             ///< DDS topic name, e.g. "esfleet/map/tiles" or "rt/map"
+  bool reliable = true;          ///< RELIABLE, else BEST_EFFORT
+  bool transient_local = false;  ///< TRANSIENT_LOCAL, else VOLATILE
+  std::int32_t depth = 1;        ///< KEEP_LAST depth (per key for keyed topics)
+};
 
 }  // namespace esfleet::dds

@@ -48,12 +48,16 @@ class Writer {
   /// the permissions do not allow this topic in this partition). The node must outlive the
   /// writer's use (see node.hpp).
   explicit Writer(Node& node, const std::string& partition = {});
+  /// The same on the topic and with the QoS of `endpoint` instead of Msg's own (ros.hpp: the
+  /// ROS 2 topics, whose names depend on the robot's namespace).
+  Writer(Node& node, const TopicQos& endpoint, const std::string& partition = {});
   ~Writer();
   Writer(const Writer&) = delete;
   Writer& operator=(const Writer&) = delete;
 
   /// Publishes one sample. Returns false, and publishes nothing, when sample.protocol() !=
-  /// kProtocolVersion, when the node is already destroyed, or when Fast DDS refuses the write.
+  /// kProtocolVersion (esfleet types), when the node is already destroyed, or when Fast DDS refuses
+  /// the write.
   bool write(const Msg& sample);
 
   /// Topic name, e.g. "esfleet/map/tiles".
