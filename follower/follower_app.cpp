@@ -64,13 +64,16 @@ FollowerApp::FollowerApp(FollowerOptions options, const std::atomic<bool>& stop)
       topic_ = t.get();
       source_ = std::move(t);
     }
+    if (o_.ros.any()) open_ros();
     if (source_) pose_writer_ = std::make_unique<dds::PoseWriter>(*node_, o_.robot_id);
   });
   spdlog::info("following map '{}' on DDS domain {}", o_.map_id.empty() ? "(any)" : o_.map_id,
                o_.domain);
   if (source_) {
     spdlog::info("robot '{}': scans from {}; {} localisation; parameters: {}", o_.robot_id,
-                 o_.log.empty() ? "scan topic of '" + o_.scan_robot + "'" : o_.log,
+                 !o_.log.empty()          ? o_.log
+                 : !o_.scan_robot.empty() ? "scan topic of '" + o_.scan_robot + "'"
+                                          : "ROS topic " + o_.ros.scan_topic,
                  o_.localiser.hint ? "hinted" : "global", o_.parameter_changes);
   }
 }
@@ -78,10 +81,40 @@ FollowerApp::FollowerApp(FollowerOptions options, const std::atomic<bool>& stop)
 // Members in reverse: the pose writer, the scan source (its reader) and the map readers go
 // before the participant.
 FollowerApp::~FollowerApp() {
+  initial_pose_.reset();
+  ros_pose_.reset();
   pose_writer_.reset();
   source_.reset();
   map_.reset();
   node_.reset();
+}
+
+void FollowerApp::open_ros() {
+  const app::RosNames names = app::resolve_ros_names(o_.ros, o_.robot_id);
+  if (!names.scan_topic.empty()) {
+    auto s =
+        std::make_unique<app::RosScanSource>(*node_, names, o_.ros, o_.idle_exit, o_.latest_only);
+    ros_scan_ = s.get();
+    source_ = std::move(s);
+  }
+  if (o_.ros.outputs) {
+    ros_pose_ = std::make_unique<app::RosPoseOutput>(*node_, names);
+    initial_pose_ =
+        std::make_unique<InitialPoseInput>(*node_, names.initialpose_topic, names.map_frame);
+    spdlog::info("ROS 2: pose on {} and TF {} -> {} while tracking; hints from {}",
+                 names.pose_topic, names.map_frame,
+                 o_.ros.odom.empty() ? names.base_frame : names.odom_frame,
+                 names.initialpose_topic);
+  }
+}
+
+void FollowerApp::publish_ros_pose(const LaserScan& scan, const LocaliserStep& step) {
+  if (!ros_pose_ || step.state != LocaliserState::kTracking) return;
+  ros_pose_->publish(
+      TimedPose{scan.stamp, step.pose}, ros_scan_ != nullptr ? scan.odometry : std::nullopt,
+      ros_scan_ != nullptr ? ros_scan_->mount() : Pose2{},
+      app::pose_sigma(true, step.value.agreement(),
+                      map_->replica().has_map() ? map_->replica().map().cell_size() : 0.05));
 }
 
 double FollowerApp::seconds_since_start() const {
@@ -144,9 +177,19 @@ bool FollowerApp::next_scan() {
     return true;
   }
   const std::uint64_t dropped_before = topic_ != nullptr ? topic_->stats().dropped : 0;
+  if (initial_pose_) {
+    if (const std::optional<PoseHint> hint = initial_pose_->take()) {
+      spdlog::info(
+          "/initialpose: localising around ({:.2f}, {:.2f}, {:.1f} deg) within {:.2f} m "
+          "and {:.0f} deg",
+          hint->pose.x, hint->pose.y, rad_to_deg(hint->pose.theta), hint->radius, hint->angle_deg);
+      localisation_.set_hint(*hint);
+    }
+  }
   const bool was_tracking = localisation_.state() == LocaliserState::kTracking;
   if (auto scan = source_->next(stop_)) {
     const LocaliserStep step = localisation_.process(map_->replica(), *scan);
+    publish_ros_pose(*scan, step);
     if (pose_writer_) {
       pose_writer_->write(dds::pose_to_msg(o_.robot_id, {scan->stamp, step.pose},
                                            step.value.fitness, status_of(step.state)));
@@ -266,6 +309,15 @@ nlohmann::json FollowerApp::stats_json(const char* why) const {
       loc["tracking_lag_ms_max"] = lag.max;
     }
     j["localisation"] = std::move(loc);
+  }
+  if (ros_scan_ != nullptr) {
+    j["ros_scan"] = ros_scan_->stats().json();
+    j["ros_scan"]["topic"] = o_.ros.scan_topic;
+  }
+  if (ros_pose_) {
+    j["ros"] = {{"poses_published", ros_pose_->poses_published()},
+                {"pose_and_tf_bytes", ros_pose_->bytes_written()},
+                {"initialpose", initial_pose_->json()}};
   }
   return j;
 }

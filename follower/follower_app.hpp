@@ -12,10 +12,13 @@
 #include <memory>
 #include <string>
 
+#include "app/ros_pose_output.hpp"
+#include "app/ros_scan_source.hpp"
 #include "app/scan_source.hpp"
 #include "esfleet/dds/node.hpp"
 #include "esfleet/dds/writer.hpp"
 #include "follower_options.hpp"
+#include "initial_pose_input.hpp"
 #include "leader_watch.hpp"
 #include "map_subscriber.hpp"
 #include "self_localisation.hpp"
@@ -42,6 +45,10 @@ class FollowerApp {
   /// Runs the next scan if one is due; false when the scans have ended.
   bool next_scan();
   void watch_leader();
+  /// The ROS 2 scan source (--ros-scan) and outputs (--ros); inside the DDS setup step.
+  void open_ros();
+  /// After a scan: the pose and TF for ROS 2 tools, while tracking.
+  void publish_ros_pose(const LaserScan& scan, const LocaliserStep& step);
   void warn_no_map() const;
   void report() const;
   /// Saves the map files, stats.json and the trajectory; false on any failure.
@@ -54,8 +61,11 @@ class FollowerApp {
   std::unique_ptr<app::ScanSource> source_;
   std::unique_ptr<dds::Node> node_;
   std::unique_ptr<MapSubscriber> map_;
-  app::TopicScanSource* topic_ = nullptr;  ///< source_ when it is the scan topic
+  app::TopicScanSource* topic_ = nullptr;   ///< source_ when it is the scan topic
+  app::RosScanSource* ros_scan_ = nullptr;  ///< source_ when it is a ROS scan topic
   std::unique_ptr<dds::PoseWriter> pose_writer_;
+  std::unique_ptr<app::RosPoseOutput> ros_pose_;    ///< --ros
+  std::unique_ptr<InitialPoseInput> initial_pose_;  ///< --ros
   SelfLocalisation localisation_;
   LeaderWatch leader_;
   double first_tile_s_ = -1.0;

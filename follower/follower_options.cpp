@@ -13,13 +13,24 @@ void FollowerOptions::validate() const {
   if (timeout < 0.0 || rate < 0.0 || idle_exit < 0.0 || leader_timeout < 0.0) {
     throw std::invalid_argument("--timeout, --rate, --idle-exit and --leader-timeout must be >= 0");
   }
-  if (!log.empty() && !scan_robot.empty()) {
-    throw std::invalid_argument("give at most one of --log FILE and --scan-topic ROBOT_ID");
+  if (!log.empty() + !scan_robot.empty() + !ros.scan_topic.empty() > 1) {
+    throw std::invalid_argument(
+        "give at most one of --log FILE, --scan-topic ROBOT_ID and --ros-scan TOPIC");
   }
+  if (ros.any() && !secure.empty()) {
+    throw std::invalid_argument(
+        "--ros and --ros-scan do not work with --secure yet (the ROS topics are not in the "
+        "security permissions)");
+  }
+  if (ros.outputs && !has_scans()) {
+    throw std::invalid_argument("--ros publishes this robot's pose: it needs its scans");
+  }
+  ros.validate(robot_id);
 }
 
 void add_follower_flags(CLI::App& cli, FollowerOptions& o, app::ParamTable& params) {
   app::add_dds_flags(cli, o.domain, o.profile, o.secure);
+  app::add_ros_flags(cli, o.ros, false);
   cli.add_option("--map-id", o.map_id, "map to follow (default: the first one seen)");
   cli.add_option("--save-map", o.save_dir, "directory to save the map into (at exit, SIGUSR1)");
   cli.add_flag("--exit-when-complete", o.exit_when_complete,

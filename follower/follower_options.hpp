@@ -11,6 +11,7 @@
 #include <CLI/CLI.hpp>
 
 #include "app/param_table.hpp"
+#include "app/ros_options.hpp"
 #include "esfleet/core/carmen_reader.hpp"
 #include "esfleet/core/localiser.hpp"
 #include "esfleet/core/slam.hpp"
@@ -31,7 +32,7 @@ struct FollowerOptions {
   std::string save_dir;         ///< map files and stats.json at exit and on SIGUSR1
   std::string trajectory_path;  ///< the tracked poses at exit
 
-  // --- this robot's scans: none, log or scan_robot ---
+  // --- this robot's scans: none, log, scan_robot or ros.scan_topic ---
   std::string log;
   std::string scan_robot;
   std::string robot_id = "follower";  ///< id on the pose topic
@@ -42,6 +43,8 @@ struct FollowerOptions {
   bool latest_only = true;            ///< scan topic: skip to the newest waiting scan
   bool wait_complete = false;         ///< hold the scans until the leader's map is complete
 
+  // --- ROS 2 (docs/ros2.md) ---
+  app::RosOptions ros;
   // --- localisation ---
   std::string hint;  ///< x,y,theta_deg[,radius_m[,angle_deg]]; empty = global search
   /// The tracking parameters come from a whole SLAM configuration (same flags as the leader);
@@ -53,7 +56,7 @@ struct FollowerOptions {
 
   /// Throws std::invalid_argument naming the flag.
   void validate() const;
-  bool has_scans() const { return !log.empty() || !scan_robot.empty(); }
+  bool has_scans() const { return !log.empty() || !scan_robot.empty() || !ros.scan_topic.empty(); }
 };
 
 /// Registers every flag on `cli`, bound to `o` and (the parameters) `params`.

@@ -40,6 +40,8 @@ class SelfLocalisation {
   LocaliserStep process(const mapshare::MapReplica& replica, const LaserScan& scan);
 
   LocaliserState state() const { return localiser_.state(); }
+  /// Localise afresh around `hint` (/initialpose); see Localiser::set_hint.
+  void set_hint(const PoseHint& hint) { localiser_.set_hint(hint); }
   /// The last step (default before the first scan).
   const LocaliserStep& last_step() const { return last_; }
   const LocalisationStats& stats() const { return stats_; }

@@ -153,12 +153,42 @@ void LeaderApp::open_dds() {
       source_ = std::move(t);
     }
   });
+  if (o_.ros.any()) open_ros();
   spdlog::info("sharing map '{}' epoch {} on DDS domain {}{}", *o_.map_id, *o_.epoch, o_.domain,
                o_.profile.empty() ? "" : " with profile " + o_.profile);
   if (topic_ != nullptr) {
     spdlog::info("mapping the scans of robot '{}' from {}; {}", o_.scan_robot, dds::kScanTopic,
                  o_.idle_exit > 0 ? fmt::format("ending {} s after the last one", o_.idle_exit)
                                   : std::string("until stopped (Ctrl-C)"));
+  }
+}
+
+void LeaderApp::open_ros() {
+  const app::RosNames names = app::resolve_ros_names(o_.ros, o_.robot_id);
+  app::setup_step("ROS 2 topics", [&] {
+    if (!names.scan_topic.empty()) {
+      auto s = std::make_unique<app::RosScanSource>(*node_, names, o_.ros, o_.idle_exit);
+      ros_scan_ = s.get();
+      source_ = std::move(s);
+    }
+    if (o_.ros.outputs) {
+      ros_map_ = std::make_unique<RosMapOutput>(*node_, names.map_frame, o_.ros.map_period);
+      ros_pose_ = std::make_unique<app::RosPoseOutput>(*node_, names);
+    }
+  });
+  if (ros_scan_ != nullptr) {
+    spdlog::info("mapping the sensor_msgs/LaserScan of {}{}; {}", names.scan_topic,
+                 names.odom_from_tf         ? " with odometry from /tf"
+                 : names.odom_topic.empty() ? " (laser only)"
+                                            : " with odometry from " + names.odom_topic,
+                 o_.idle_exit > 0 ? fmt::format("ending {} s after the last one", o_.idle_exit)
+                                  : std::string("until stopped (Ctrl-C)"));
+  }
+  if (ros_map_) {
+    spdlog::info(
+        "ROS 2: /map every {} s of scan time, /map_updates in between, pose on {}, TF "
+        "{} -> {}",
+        o_.ros.map_period, names.pose_topic, names.map_frame, names.odom_frame);
   }
 }
 
@@ -176,12 +206,20 @@ void LeaderApp::publish(bool complete, float fitness) {
   if (checkpoints_) checkpoints_->reserve(slam_.map());
   publisher_->publish(slam_.map(), slam_.trajectory().back(), fitness, complete,
                       static_cast<std::uint32_t>(slam_.scans_processed()), params_json_);
+  if (ros_map_) ros_map_->publish(slam_.map(), slam_.trajectory().back().stamp, complete);
 }
 
 void LeaderApp::on_scan(const LaserScan& scan, const SlamStep& step, std::size_t done) {
   if (!first_stamp_) first_stamp_ = scan.stamp;
   if (checkpoints_) checkpoints_->after_scan(slam_);
   last_stamp_ = scan.stamp;
+  if (ros_pose_) {
+    const double cpu0 = thread_cpu_seconds();
+    ros_pose_->publish(TimedPose{scan.stamp, step.pose}, scan.odometry,
+                       ros_scan_ != nullptr ? ros_scan_->mount() : Pose2{},
+                       app::pose_sigma(true, step.fitness.agreement(), slam_.map().cell_size()));
+    ros_pose_cpu_s_ += thread_cpu_seconds() - cpu0;
+  }
   if (publisher_ && scan.stamp - last_publish_ >= o_.publish_period) {
     publish(false, step.fitness.fitness);
     last_publish_ = scan.stamp;
@@ -244,6 +282,10 @@ nlohmann::json LeaderApp::extra_stats(const SlamRunStats& stats) {
   } else {
     extra["log"] = o_.log;
   }
+  if (ros_scan_ != nullptr) {
+    extra["ros_scan"] = ros_scan_->stats().json();
+    extra["ros_scan"]["topic"] = o_.ros.scan_topic;
+  }
   extra["paper_mode"] = o_.paper;
   if (checkpoints_) extra["checkpoint"] = checkpoints_->stats();
   if (resumed_) {
@@ -258,7 +300,33 @@ nlohmann::json LeaderApp::extra_stats(const SlamRunStats& stats) {
     extra["dds"] =
         dds_stats(publisher_->stats(), o_, first_stamp_ ? last_stamp_ - *first_stamp_ : 0);
   }
+  if (ros_map_) extra["ros"] = ros_stats(stats);
   return extra;
+}
+
+nlohmann::json LeaderApp::ros_stats(const SlamRunStats& stats) const {
+  const RosMapStats& m = ros_map_->stats();
+  double slam_ms = 0.0;
+  for (const double ms : stats.ms_per_scan) slam_ms += ms;
+  const double ros_cpu_s = m.cpu_s + ros_pose_cpu_s_;
+  const double share = slam_ms > 0 ? ros_cpu_s / (slam_ms / 1e3) : 0.0;
+  const double input_s = first_stamp_ ? last_stamp_ - *first_stamp_ : 0.0;
+  const auto sent = static_cast<double>(m.map_bytes + m.update_bytes);
+  const auto whole = static_cast<double>(m.whole_every_publish_bytes);
+  spdlog::info(
+      "ROS 2: {} /map ({:.1f} kB) and {} /map_updates ({:.1f} kB), {:.0f} B per log second; a "
+      "whole /map at every publish would be {:.1f} kB ({:.1f}x more); ROS outputs took {:.2f} s "
+      "CPU, {:.1f} % of the SLAM's time",
+      m.maps, static_cast<double>(m.map_bytes) / 1e3, m.updates,
+      static_cast<double>(m.update_bytes) / 1e3, input_s > 0 ? sent / input_s : 0.0, whole / 1e3,
+      sent > 0 ? whole / sent : 0.0, ros_cpu_s, 100.0 * share);
+  nlohmann::json j = m.json();
+  j["map_period_s"] = o_.ros.map_period;
+  j["bytes_per_log_s"] = input_s > 0 ? sent / input_s : 0.0;
+  j["pose_and_tf_bytes"] = ros_pose_->bytes_written();
+  j["pose_cpu_s"] = ros_pose_cpu_s_;
+  j["cpu_share_of_slam"] = share;
+  return j;
 }
 
 void LeaderApp::serve(const SlamRunStats& stats) {

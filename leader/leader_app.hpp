@@ -13,12 +13,15 @@
 
 #include <nlohmann/json.hpp>
 
+#include "app/ros_pose_output.hpp"
+#include "app/ros_scan_source.hpp"
 #include "app/scan_source.hpp"
 #include "checkpoint.hpp"
 #include "esfleet/core/slam.hpp"
 #include "esfleet/dds/node.hpp"
 #include "leader_options.hpp"
 #include "map_publisher.hpp"
+#include "ros_map_output.hpp"
 #include "slam_run.hpp"
 
 namespace esfleet::leader {
@@ -42,12 +45,16 @@ class LeaderApp {
   void resume_checkpoint();
   void read_log();
   void open_dds();
+  /// The ROS 2 scan source (--ros-scan) and outputs (--ros).
+  void open_ros();
   void open_checkpoints();
   /// After each scan: checkpoint, publish when due, progress line.
   void on_scan(const LaserScan& scan, const SlamStep& step, std::size_t done);
   void publish(bool complete, float fitness);
   /// What stats.json holds besides the SLAM's own figures.
   nlohmann::json extra_stats(const SlamRunStats& stats);
+  /// stats.json "ros": what the ROS outputs sent and cost; logs a summary.
+  nlohmann::json ros_stats(const SlamRunStats& stats) const;
   /// After a complete map: serves it for --linger seconds or until stopped.
   void serve(const SlamRunStats& stats);
 
@@ -59,7 +66,11 @@ class LeaderApp {
   std::unique_ptr<dds::Node> node_;
   std::unique_ptr<MapPublisher> publisher_;
   std::unique_ptr<app::ScanSource> source_;
-  app::TopicScanSource* topic_ = nullptr;  ///< source_ when it is the scan topic
+  app::TopicScanSource* topic_ = nullptr;   ///< source_ when it is the scan topic
+  app::RosScanSource* ros_scan_ = nullptr;  ///< source_ when it is a ROS scan topic
+  std::unique_ptr<RosMapOutput> ros_map_;   ///< --ros
+  std::unique_ptr<app::RosPoseOutput> ros_pose_;
+  double ros_pose_cpu_s_ = 0.0;  ///< thread CPU of the pose and TF outputs
   std::optional<CheckpointSchedule> checkpoints_;
   std::size_t progress_every_ = 0;
   std::optional<double> first_stamp_;

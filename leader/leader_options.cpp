@@ -12,23 +12,34 @@ void LeaderOptions::validate() const {
   if (!(rate >= 0.0)) throw std::invalid_argument("--rate must be >= 0");
   if (!(publish_period > 0.0)) throw std::invalid_argument("--publish-period must be > 0");
   if (!(full_period > 0.0)) throw std::invalid_argument("--full-period must be > 0");
-  if (log.empty() == scan_robot.empty()) {
-    throw std::invalid_argument("give exactly one of --log FILE and --scan-topic ROBOT_ID");
+  const int inputs = !log.empty() + !scan_robot.empty() + !ros.scan_topic.empty();
+  if (inputs != 1) {
+    throw std::invalid_argument(
+        "give exactly one of --log FILE, --scan-topic ROBOT_ID and --ros-scan TOPIC");
   }
-  if (!scan_robot.empty() && offline) {
-    throw std::invalid_argument("--offline maps a --log only (--scan-topic needs DDS)");
+  if (log.empty() && offline) {
+    throw std::invalid_argument(
+        "--offline maps a --log only (--scan-topic and --ros-scan need DDS)");
   }
-  if (!scan_robot.empty() && rate > 0.0) {
-    throw std::invalid_argument("--rate paces a --log; scans from --scan-topic come as sent");
+  if (ros.outputs && offline) throw std::invalid_argument("--ros needs DDS (not --offline)");
+  if (log.empty() && rate > 0.0) {
+    throw std::invalid_argument("--rate paces a --log; scans from a topic come as sent");
   }
   if (!(idle_exit >= 0.0)) throw std::invalid_argument("--idle-exit must be >= 0");
-  if (idle_exit > 0.0 && scan_robot.empty()) {
-    throw std::invalid_argument("--idle-exit needs --scan-topic");
+  if (idle_exit > 0.0 && !log.empty()) {
+    throw std::invalid_argument("--idle-exit needs --scan-topic or --ros-scan");
   }
+  if (ros.any() && !secure.empty()) {
+    throw std::invalid_argument(
+        "--ros and --ros-scan do not work with --secure yet (the ROS topics are not in the "
+        "security permissions)");
+  }
+  ros.validate(robot_id);
 }
 
 std::string LeaderOptions::input_name() const {
-  return log.empty() ? "scan-topic " + scan_robot : "log " + log;
+  if (!log.empty()) return "log " + log;
+  return scan_robot.empty() ? "ros-scan " + ros.scan_topic : "scan-topic " + scan_robot;
 }
 
 void add_leader_flags(CLI::App& cli, LeaderOptions& o, app::ParamTable& params) {
@@ -53,6 +64,7 @@ void add_leader_flags(CLI::App& cli, LeaderOptions& o, app::ParamTable& params) 
   cli.add_flag("--paper", o.paper,
                "start from the paper's exact configuration (previous-pose prediction, no "
                "extensions) before applying --config and the flags below");
+  app::add_ros_flags(cli, o.ros, true);
   auto* dds = cli.add_option_group("DDS", "Map sharing (without --offline)");
   app::add_dds_flags(*dds, o.domain, o.profile, o.secure);
   dds->add_option("--map-id", o.map_id,

@@ -11,6 +11,7 @@
 #include <CLI/CLI.hpp>
 
 #include "app/param_table.hpp"
+#include "app/ros_options.hpp"
 #include "esfleet/core/carmen_reader.hpp"
 #include "esfleet/core/slam.hpp"
 #include "esfleet/core/tile_codec.hpp"
@@ -18,7 +19,7 @@
 namespace esfleet::leader {
 
 struct LeaderOptions {
-  // --- input: exactly one of log and scan_robot ---
+  // --- input: exactly one of log, scan_robot and ros.scan_topic ---
   std::string log;            ///< CARMEN log (.log/.clf, plain or .gz)
   std::string scan_robot;     ///< map the scans this robot publishes on the scan topic
   double idle_exit = 0.0;     ///< scan topic: end once no scan came for this long (s); 0 = never
@@ -44,6 +45,8 @@ struct LeaderOptions {
   std::uint64_t full_every = 60;  ///< a changed tile goes whole every this many publishes of it
   double full_period = 60.0;      ///< ... and when its whole copy is this old (s of scan time)
 
+  // --- ROS 2 (docs/ros2.md) ---
+  app::RosOptions ros;
   // --- SLAM ---
   bool paper = false;  ///< start from the paper's exact configuration
   SlamConfig slam;
@@ -56,7 +59,8 @@ struct LeaderOptions {
 
   /// Throws std::invalid_argument naming the flag.
   void validate() const;
-  /// "log PATH" or "scan-topic ROBOT_ID": what the map was made from (checkpoints).
+  /// "log PATH", "scan-topic ROBOT_ID" or "ros-scan TOPIC": what the map was made from
+  /// (checkpoints).
   std::string input_name() const;
 };
 

@@ -102,6 +102,14 @@ void Localiser::reset() {
   bad_streak_ = 0;
 }
 
+void Localiser::set_hint(const PoseHint& hint) {
+  LocaliserConfig c = config_;
+  c.hint = hint;
+  c.validate();
+  config_.hint = hint;
+  reset();
+}
+
 std::vector<HypothesisView> Localiser::hypothesis_views() const {
   std::vector<HypothesisView> out;
   for (const Hypothesis& h : pool_) {

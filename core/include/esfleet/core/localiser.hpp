@@ -156,6 +156,9 @@ class Localiser {
   const LocaliserConfig& config() const { return config_; }
   /// Forget everything and search globally again (e.g. a new map epoch).
   void reset();
+  /// Forget everything and search around `hint` (as AMCL does on /initialpose): for the next
+  /// hint_scans scans, then globally. Throws std::invalid_argument for a bad radius or angle.
+  void set_hint(const PoseHint& hint);
   /// Diagnostics go to `observer` (nullptr: none; the default). It must outlive its use here.
   /// Observing changes nothing the localiser computes or draws.
   void set_observer(LocaliserObserver* observer) { observer_ = observer; }
