@@ -92,8 +92,9 @@ void add_ros_flags(CLI::App& cli, RosOptions& o, bool leader) {
       "else 0,0,0)");
   if (leader) {
     g->add_option("--ros-map-period", o.map_period,
-                  "seconds of scan time between whole /map messages (changed tiles go on "
-                  "/map_updates at every publish)")
+                  "seconds of scan time between whole /map messages; changed tiles go on "
+                  "/map_updates at every publish, and a whole /map also goes when the map grew "
+                  "or a new /map reader joined")
         ->capture_default_str();
   }
 }

@@ -25,7 +25,7 @@ struct RosOptions {
   /// --laser-pose: the laser's pose on the base (base -> laser); unset = from /tf_static when
   /// odometry is used, else identity.
   std::optional<Pose2> laser_pose;
-  double map_period = 5.0;  ///< leader: seconds of scan time between whole /map messages
+  double map_period = 30.0;  ///< leader: seconds of scan time between whole /map messages
 
   /// The namespace: --ros-namespace, or "/<robot_id>".
   std::string resolved_ns(const std::string& robot_id) const;

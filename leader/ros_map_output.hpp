@@ -5,14 +5,17 @@
 // the last publish (RViz2's Map display applies them). Cell values are ros_cell_value: what
 // the saved map.pgm reads back as in map_server.
 //
-// /map covers the bounding box of the map's tiles; when a change falls outside the box of the
-// last /map (the map grew by a tile), the whole /map goes out at once instead of an update
-// (RViz2 drops updates outside the last map). Each update is the bounding rectangle of the
-// changed tiles, with the values of all its cells.
+// Only tiles whose ROS values changed go out (most counter changes leave every cell's class as
+// it was): one update per row of tiles (first to last changed tile of the row), or one update
+// of the rectangle around them all when the rows are many. /map covers the bounding box of the
+// map's tiles; when a change falls outside the box of the last /map (the map grew by a tile), the
+// whole /map goes out at once instead of an update (RViz2 drops updates outside the last map); so
+// it does when a new /map reader matched (a late joiner's transient-local copy may be old).
 
 #include <cstdint>
 #include <map>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -28,7 +31,9 @@ struct RosMapStats {
   std::uint64_t map_bytes = 0;  ///< their CDR bytes
   std::uint64_t updates = 0;    ///< /map_updates messages
   std::uint64_t update_bytes = 0;
-  std::uint64_t grown = 0;  ///< whole maps sent early because the map grew
+  std::uint64_t grown = 0;               ///< whole maps sent early because the map grew
+  std::uint64_t for_joiners = 0;         ///< whole maps sent early because a /map reader matched
+  std::uint64_t changed_tile_cells = 0;  ///< cells of the tiles whose ROS values changed
   /// What a whole /map at every publish would have cost (the same message size each time).
   std::uint64_t whole_every_publish_bytes = 0;
   double cpu_s = 0.0;  ///< thread CPU spent building and writing them
@@ -50,14 +55,23 @@ class RosMapOutput {
 
  private:
   void send_map(const GridMap& map, double stamp);
+  void send_update(const GridMap& map, const dds::RosGridWindow& rect, double stamp);
+  /// The tiles whose ROS values changed since the last call (new tiles included).
+  std::vector<TileKey> changed_tiles(const GridMap& map);
+
+  struct SentTile {
+    std::uint64_t version = 0;
+    std::vector<std::int8_t> values;  ///< the ROS values last sent
+  };
 
   std::string frame_;
   double period_s_;
   OccupancyThresholds thresholds_;
-  std::map<TileKey, std::uint64_t> sent_versions_;  ///< tile -> version at the last publish
-  dds::RosGridWindow window_;                       ///< of the last /map
+  std::map<TileKey, SentTile> sent_;
+  dds::RosGridWindow window_;  ///< of the last /map
   double last_map_stamp_ = -1e300;
   bool sent_any_ = false;
+  int readers_ = 0;  ///< /map readers matched at the last publish
   RosMapStats stats_;
   dds::RosMapWriter map_;
   dds::RosMapUpdateWriter updates_;
