@@ -11,6 +11,7 @@ packages=(
   iproute2 nftables  # deploy/netns/testbed.sh and its test (network namespaces, tc, loss)
   clang libclang-rt-14-dev  # fuzz/: clang 14 with libFuzzer and the ASan/UBSan runtimes
   openssl tcpdump  # deploy/security/make-fleet-certs.sh; the security capture test
+  cyclonedds-dev cyclonedds-tools  # tests/ros2: Cyclone DDS, the independent ROS 2 DDS peer
 )
 missing=()
 for p in "${packages[@]}"; do
