@@ -111,10 +111,19 @@ std::size_t for_each_end_point(const OccupancyBenchOptions& o, const std::vector
   return i;
 }
 
-void write_json(const std::string& path, const nlohmann::json& j) {
-  if (!path.empty()) write_file_atomically(path, j.dump(2) + "\n");
+/// Writes `j` to `path` (nothing if empty); 0, or 1 with a message when it cannot.
+int write_json(const char* cmd, const std::string& path, const nlohmann::json& j) {
+  if (path.empty()) return 0;
+  try {
+    write_file_atomically(path, j.dump(2) + "\n");
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "esfleet-bench %s: %s\n", cmd, e.what());
+    return 1;
+  }
+  return 0;
 }
 
+/// Bad input: the message, exit code 2.
 int fail(const char* cmd, const std::exception& e) {
   std::fprintf(stderr, "esfleet-bench %s: %s\n", cmd, e.what());
   return 2;
@@ -269,18 +278,18 @@ int run_occupancy_bench(OccupancyBenchOptions& o) {
                 ends.share(ends.free), ends.share(ends.unknown));
     std::printf("end points on or next to (8-neighbourhood) an occupied cell %.4f\n",
                 ends.share(near_occupied));
-    write_json(o.json, {{"log", o.log},
-                        {"trajectory", o.trajectory},
-                        {"map", o.map},
-                        {"cells", cells.to_json()},
-                        {"scans", scans},
-                        {"end_points", ends.total()},
-                        {"end_point_share", ends.shares_json()},
-                        {"end_point_share_near_occupied", ends.share(near_occupied)}});
+    return write_json("occupancy", o.json,
+                      {{"log", o.log},
+                       {"trajectory", o.trajectory},
+                       {"map", o.map},
+                       {"cells", cells.to_json()},
+                       {"scans", scans},
+                       {"end_points", ends.total()},
+                       {"end_point_share", ends.shares_json()},
+                       {"end_point_share_near_occupied", ends.share(near_occupied)}});
   } catch (const std::exception& e) {
     return fail("occupancy", e);
   }
-  return 0;
 }
 
 int run_occupancy_truth(OccupancyBenchOptions& o) {
@@ -314,23 +323,23 @@ int run_occupancy_truth(OccupancyBenchOptions& o) {
         "occupied map cell %llu, recall %.4f\n",
         static_cast<unsigned long long>(recall.of), static_cast<unsigned long long>(no_wall),
         static_cast<unsigned long long>(recall.n), recall.ratio());
-    write_json(o.json, {{"log", o.log},
-                        {"trajectory", o.trajectory},
-                        {"truth", o.truth},
-                        {"world", o.world},
-                        {"map", o.map},
-                        {"poses", n},
-                        {"occupied_cells", precision.of},
-                        {"occupied_near_true_wall", precision.n},
-                        {"precision", precision.ratio()},
-                        {"true_wall_cells_hit", recall.of},
-                        {"true_wall_cells_found", recall.n},
-                        {"end_points_without_true_wall", no_wall},
-                        {"recall", recall.ratio()}});
+    return write_json("occupancy-truth", o.json,
+                      {{"log", o.log},
+                       {"trajectory", o.trajectory},
+                       {"truth", o.truth},
+                       {"world", o.world},
+                       {"map", o.map},
+                       {"poses", n},
+                       {"occupied_cells", precision.of},
+                       {"occupied_near_true_wall", precision.n},
+                       {"precision", precision.ratio()},
+                       {"true_wall_cells_hit", recall.of},
+                       {"true_wall_cells_found", recall.n},
+                       {"end_points_without_true_wall", no_wall},
+                       {"recall", recall.ratio()}});
   } catch (const std::exception& e) {
     return fail("occupancy-truth", e);
   }
-  return 0;
 }
 
 }  // namespace esfleet::bench
