@@ -3,8 +3,12 @@
 //             separately, the paper's configuration and ours, in one process.
 //   localise  follower global localisation in a leader's map built from the same log: success,
 //             wrong-confident rate and CPU time to a declared pose; tracking error; kidnap.
+//   occupancy the cells of a saved map.yaml (as map_server reads it) and where the leader's own
+//             scans end in it: on occupied, free or unknown cells.
+//   occupancy-truth  a simulated run's map against the world's true walls: precision, recall.
 #include "app/program.hpp"
 #include "localise_bench.hpp"
+#include "occupancy_bench.hpp"
 #include "slam_bench.hpp"
 
 int main(int argc, char** argv) {
@@ -27,10 +31,26 @@ int main(int argc, char** argv) {
       "start scans of the same log: success and wrong-confident rates, CPU time and scans to "
       "a declared pose; tracking error over the log; kidnapped-robot recovery");
   bench::add_localise_bench_options(*localise_cmd, localise);
+  bench::OccupancyBenchOptions occupancy;
+  CLI::App* occupancy_cmd = cli.add_subcommand(
+      "occupancy",
+      "a saved map.yaml read as map_server reads it: its occupied, free and unknown cells, and "
+      "the share of the scan end points of a CARMEN log, at the leader's own trajectory, that "
+      "land on each (no ground truth)");
+  bench::add_occupancy_bench_options(*occupancy_cmd, occupancy);
+  bench::OccupancyBenchOptions truth;
+  CLI::App* truth_cmd = cli.add_subcommand(
+      "occupancy-truth",
+      "a map.yaml of an esfleet-sim run against the world's true walls: precision (occupied "
+      "cells within a cell of a true wall) and recall (true wall cells the beams hit with an "
+      "occupied cell within a cell), the map aligned by the leader's and the true trajectory");
+  bench::add_occupancy_truth_options(*truth_cmd, truth);
   if (auto code = program.parse(argc, argv)) return *code;
   return program.run([&] {
     if (slam_cmd->parsed()) return bench::run_slam_bench(slam);
     if (localise_cmd->parsed()) return bench::run_localise_bench(localise);
+    if (occupancy_cmd->parsed()) return bench::run_occupancy_bench(occupancy);
+    if (truth_cmd->parsed()) return bench::run_occupancy_truth(truth);
     return static_cast<int>(app::kExitUsage);  // require_subcommand(1): not reached
   });
 }

@@ -65,7 +65,7 @@ program, what it is for and which codes it uses, then its `--help` as it prints 
 - [esfleet-fleet](#esfleet-fleet)
 - [esfleet-sim](#esfleet-sim)
 - [esfleet-replay](#esfleet-replay)
-- [esfleet-bench](#esfleet-bench) (`slam`, `localise`)
+- [esfleet-bench](#esfleet-bench) (`slam`, `localise`, `occupancy`, `occupancy-truth`)
 - [esfleet-eval](#esfleet-eval)
 - [esfleet-map-png](#esfleet-map-png)
 
@@ -147,9 +147,12 @@ cat <<'TEXT'
 
 The measurements behind `docs/results.md`: `slam` times the ES search and the map update per
 scan (the paper's configuration and the default pipeline, in one process); `localise` measures
-follower global localisation, tracking and kidnap recovery in the leader's map of a log.
-Figures on stdout and in a JSON file. Exit codes: 0 done; 1 the results (or the trace) could
-not be written, or the relations file could not be read; 2 bad usage or an unreadable log.
+follower global localisation, tracking and kidnap recovery in the leader's map of a log;
+`occupancy` reads a saved `map.yaml` as `map_server` does and counts where the leader's own scan
+end points land in it (occupied, free, unknown); `occupancy-truth` scores a simulated run's map
+against the world's true walls (precision, recall). Figures on stdout and in a JSON file.
+Exit codes: 0 done; 1 the results (or the trace) could not be written, or the relations file
+could not be read; 2 bad usage or an unreadable input (log, trajectory, map, world).
 
 TEXT
 help_block esfleet-bench
@@ -165,6 +168,18 @@ cat <<'TEXT'
 
 TEXT
 help_block esfleet-bench localise
+cat <<'TEXT'
+
+### esfleet-bench occupancy
+
+TEXT
+help_block esfleet-bench occupancy
+cat <<'TEXT'
+
+### esfleet-bench occupancy-truth
+
+TEXT
+help_block esfleet-bench occupancy-truth
 cat <<'TEXT'
 
 ## esfleet-eval

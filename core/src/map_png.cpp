@@ -42,10 +42,9 @@ bool clip_segment(cv::Point2d& a, cv::Point2d& b, double w, double h) {
 
 cv::Mat draw_map(const GridMap& map, const std::vector<TimedPose>& trajectory,
                  const OccupancyThresholds& th, const std::string& path) {
-  const detail::GreyLevels g = detail::grey_levels(th);
-  const detail::Raster r = detail::render(map, th, g, path);
+  const detail::Raster r = detail::render(map, th, path);
   cv::Mat img(r.height, r.width, CV_8UC3);
-  const int u = g.unknown;
+  const int u = kUnknownLevel;
   const cv::Vec3b tint(static_cast<std::uint8_t>(std::min(u + 15, 255)),
                        static_cast<std::uint8_t>(u),
                        static_cast<std::uint8_t>(std::max(u - 15, 0)));  // BGR

@@ -14,16 +14,7 @@ namespace esfleet {
 namespace {
 
 namespace fs = std::filesystem;
-using detail::GreyLevels;
 using detail::Raster;
-
-/// Margin on the thresholds when choosing levels: map_server implementations compute the
-/// occupancy of a level as (255 - x) / 255 or 1 - x / 255 (possibly via 16-bit quanta), which
-/// may differ in the last bit.
-constexpr double kThresholdMargin = 1e-9;
-constexpr int kPreferredUnknownLevel = 205;  // what ROS map_saver writes for unknown
-
-double occupancy_of_level(int x) { return 1.0 - static_cast<double>(x) / 255.0; }
 
 /// Shortest text that reads back as exactly `v`, always with a '.' in the mantissa so YAML 1.1
 /// readers (PyYAML) also see a float: "0.05", "-0.45", "1.0e-05", "3.0".
@@ -46,79 +37,37 @@ bool valid_map_name(const std::string& name) {
   });
 }
 
-/// The grey level of a known cell (hit + err > 0); see save_ros_map.
-std::uint8_t level_of(std::uint64_t hit, std::uint64_t err, const OccupancyThresholds& th,
-                      const GreyLevels& g) {
-  const double p = static_cast<double>(hit) / static_cast<double>(hit + err);
-  if (p >= th.occupied) return g.occupied;
-  if (p <= th.free) return g.free;
-  int x = static_cast<int>(std::lround(255.0 * (1.0 - p)));
-  x = std::clamp(x, g.between_lo, g.between_hi);
-  if (x == g.unknown) {
-    if (x - 1 >= g.between_lo) {
-      --x;
-    } else if (x + 1 <= g.between_hi) {
-      ++x;
-    }
-  }
-  return static_cast<std::uint8_t>(x);
+/// The grey level of a cell's class (see ros_map_format.hpp).
+std::uint8_t level_of(std::int8_t value) {
+  if (value == 100) return kOccupiedLevel;
+  if (value == 0) return kFreeLevel;
+  return kUnknownLevel;
 }
 
 }  // namespace
 
+void OccupancyThresholds::validate() const {
+  const auto fail = [](const std::string& field, double v, const std::string& need) {
+    throw std::invalid_argument("occupancy threshold " + field + " " + format_double(v) +
+                                ": need " + need);
+  };
+  if (!(occupied >= 0.0 && occupied < 1.0)) fail("occupied", occupied, "0 <= occupied < 1");
+  if (min_hits < 1) fail("min_hits", static_cast<double>(min_hits), "min_hits >= 1");
+  if (!(free >= 0.0 && free <= occupied)) fail("free", free, "0 <= free <= occupied");
+}
+
 std::int8_t ros_cell_value(std::uint64_t hit, std::uint64_t err, const OccupancyThresholds& th) {
   if (hit + err == 0) return -1;
   const double p = static_cast<double>(hit) / static_cast<double>(hit + err);
-  if (p >= th.occupied) return 100;
+  if (hit >= th.min_hits && p > th.occupied) return 100;
   if (p <= th.free) return 0;
   return -1;
 }
 
 namespace detail {
 
-GreyLevels grey_levels(const OccupancyThresholds& th) {
-  if (!std::isfinite(th.free) || !std::isfinite(th.occupied) || !(th.free > 0.0) ||
-      !(th.free < th.occupied) || !(th.occupied < 1.0)) {
-    throw std::invalid_argument("occupancy thresholds need 0 < free < occupied < 1, got free " +
-                                format_double(th.free) + ", occupied " +
-                                format_double(th.occupied));
-  }
-  const double occ_hi = th.occupied + kThresholdMargin, occ_lo = th.occupied - kThresholdMargin;
-  const double free_lo = th.free - kThresholdMargin, free_hi = th.free + kThresholdMargin;
-  GreyLevels g;
-  if (!(occupancy_of_level(0) > occ_hi)) {
-    throw std::invalid_argument("occupancy threshold occupied " + format_double(th.occupied) +
-                                " is too close to 1: no grey level reads as occupied");
-  }
-  g.occupied = 0;
-  if (occupancy_of_level(254) < free_lo) {
-    g.free = 254;
-  } else if (occupancy_of_level(255) < free_lo) {
-    g.free = 255;
-  } else {
-    throw std::invalid_argument("occupancy threshold free " + format_double(th.free) +
-                                " is too close to 0: no grey level reads as free");
-  }
-  g.between_lo = -1;
-  for (int x = 0; x <= 255; ++x) {
-    const double o = occupancy_of_level(x);
-    if (o >= free_hi && o <= occ_lo) {
-      if (g.between_lo < 0) g.between_lo = x;
-      g.between_hi = x;
-    }
-  }
-  if (g.between_lo < 0) {
-    throw std::invalid_argument("occupancy thresholds free " + format_double(th.free) +
-                                " and occupied " + format_double(th.occupied) +
-                                " leave no grey level that reads as unknown");
-  }
-  g.unknown =
-      static_cast<std::uint8_t>(std::clamp(kPreferredUnknownLevel, g.between_lo, g.between_hi));
-  return g;
-}
-
-Raster render(const GridMap& map, const OccupancyThresholds& th, const GreyLevels& g,
-              const std::string& path) {
+Raster render(const GridMap& map, const OccupancyThresholds& th, const std::string& path) {
+  th.validate();
   Raster r;
   const GridMap::Bounds b = map.known_bounds();
   if (!b.empty) {
@@ -136,7 +85,7 @@ Raster render(const GridMap& map, const OccupancyThresholds& th, const GreyLevel
     r.max_y = b.max.y;
   }
   const auto n = static_cast<std::size_t>(r.width) * static_cast<std::size_t>(r.height);
-  r.grey.assign(n, g.unknown);
+  r.grey.assign(n, kUnknownLevel);
   r.known.assign(n, 0);
   if (b.empty) return r;
   const std::int32_t edge = map.tile_edge();
@@ -152,7 +101,7 @@ Raster render(const GridMap& map, const OccupancyThresholds& th, const GreyLevel
         const std::int64_t col = std::int64_t{key.tx} * edge + lx - r.min.x;
         if (col < 0 || col >= r.width) continue;
         const auto j = static_cast<std::size_t>(row * r.width + col);
-        r.grey[j] = level_of(h, e, th, g);
+        r.grey[j] = level_of(ros_cell_value(h, e, th));
         r.known[j] = 1;
       }
     }
@@ -168,11 +117,10 @@ void save_ros_map(const GridMap& map, const std::string& dir, const std::string&
     throw std::invalid_argument("map name '" + name +
                                 "' must be non-empty and use only [A-Za-z0-9._-]");
   }
-  const GreyLevels g = detail::grey_levels(th);
   const fs::path base = fs::path(dir);
   const std::string pgm_path = (base / (name + ".pgm")).string();
   const std::string yaml_path = (base / (name + ".yaml")).string();
-  const Raster r = detail::render(map, th, g, pgm_path);
+  const Raster r = detail::render(map, th, pgm_path);
 
   if (!dir.empty()) {
     std::error_code ec;
@@ -192,8 +140,8 @@ void save_ros_map(const GridMap& map, const std::string& dir, const std::string&
   yaml +=
       "origin: [" + format_double(r.min.x * cs) + ", " + format_double(r.min.y * cs) + ", 0.0]\n";
   yaml += "negate: 0\n";
-  yaml += "occupied_thresh: " + format_double(th.occupied) + "\n";
-  yaml += "free_thresh: " + format_double(th.free) + "\n";
+  yaml += "occupied_thresh: " + format_double(kRosOccupiedThresh) + "\n";
+  yaml += "free_thresh: " + format_double(kRosFreeThresh) + "\n";
   write_file_atomically(yaml_path, yaml);
 }
 

@@ -66,16 +66,18 @@ inline void add(GridMap& map, CellIndex c, int hits, int errs) {
 }
 
 /// The test map: 14 x 12 cells (x -9..4, y -6..5) over four 8-cell tiles, with cells chosen
-/// at and around the thresholds.
+/// at and around the default OccupancyThresholds (occupied: hit >= 2 and p > 0.196; free:
+/// p <= 0.196).
 inline GridMap make_test_map() {
   GridMap map(GridMapConfig{.cell_size = 0.05, .tile_edge = 8});
-  add(map, {-9, 5}, 3, 0);       // occupied, top-left pixel
-  add(map, {-9, -6}, 13, 7);     // p = 0.65 exactly: occupied (threshold inclusive)
-  add(map, {4, -6}, 0, 2);       // free, bottom-right pixel
-  add(map, {4, 5}, 49, 201);     // p = 0.196 exactly: free (threshold inclusive)
-  add(map, {0, 0}, 1, 1);        // p = 0.5: grey 128
-  add(map, {2, 3}, 1299, 701);   // p = 0.6495: 89.4 would read occupied, clamped to 90
-  add(map, {-1, -1}, 197, 803);  // p = 0.197: 204.8 rounds to 205 (unknown), moved to 204
+  add(map, {-9, 5}, 3, 0);    // occupied, top-left pixel
+  add(map, {-9, -6}, 2, 8);   // p = 0.2, two hits: occupied (a grazed wall)
+  add(map, {4, -6}, 0, 2);    // free, bottom-right pixel
+  add(map, {4, 5}, 49, 201);  // p = 0.196 exactly: free (threshold inclusive), 49 hits or not
+  add(map, {0, 0}, 1, 1);     // p = 0.5 but one hit: unknown
+  add(map, {2, 3}, 1, 0);     // p = 1 but one hit: unknown
+  add(map, {-1, -1}, 1, 9);   // p = 0.1: free
+  add(map, {3, 2}, 50, 150);  // p = 0.25: occupied
   for (int x = -3; x <= 3; ++x) add(map, {x, -4}, 0, 1);  // a free row
   map.commit_update();
   return map;

@@ -119,13 +119,15 @@ RgbImage decode_rgb_png(const std::string& bytes) {
 
 // --- save_map_png ------------------------------------------------------------------------------
 
-/// 20 x 10 cells of 0.1 m at x 0..19, y 0..9: free, column x = 19 occupied, (5, 8) unknown.
+/// 20 x 10 cells of 0.1 m at x 0..19, y 0..9: free, column x = 19 occupied (two hits each),
+/// (5, 8) unknown.
 GridMap make_room() {
   GridMap map(GridMapConfig{.cell_size = 0.1, .tile_edge = 8});
   for (int y = 0; y <= 9; ++y) {
     for (int x = 0; x <= 19; ++x) {
       if (x == 5 && y == 8) continue;
       if (x == 19) {
+        map.add_hit({x, y});
         map.add_hit({x, y});
       } else {
         map.add_err({x, y});

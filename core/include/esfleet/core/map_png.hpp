@@ -12,8 +12,8 @@
 namespace esfleet {
 
 /// Writes a colour PNG of the map to `path` (atomically), same crop and pixel layout as
-/// save_ros_map: known cells in their PGM grey level, unknown cells light blue-grey
-/// (RGB u-15, u, u+15 for the unknown grey level u, so RGB 190,205,220 by default: the channel
+/// save_ros_map: observed cells in their PGM grey level, cells never observed light blue-grey
+/// (RGB u-15, u, u+15 for the unknown level u = kUnknownLevel, so RGB 190,205,220: the channel
 /// mean is u and map_server still reads them as unknown). The trajectory is drawn over it as a
 /// 1-pixel red (255,0,0) polyline through the pixels containing the poses, segments clipped to
 /// the image and non-finite poses skipped; then a green (0,255,0) filled disc of radius 3 px at
