@@ -96,8 +96,8 @@ void add_replay_flags(CLI::App& cli, ReplayOptions& o) {
   cli.add_option("--max-scans", o.max_scans, "publish only the first N scans (0 = all)")
       ->capture_default_str();
   cli.add_option("--wait-subscribers", o.wait_subscribers,
-                 "before the first scan, wait until N scan readers are matched (0 = start at "
-                 "once)")
+                 "before the first scan, wait until N scan readers are matched (with --ros: of "
+                 "<ns>/scan; 0 = start at once)")
       ->capture_default_str();
   cli.add_option("--wait-timeout", o.wait_timeout,
                  "wait at most S seconds for them, then start anyway")
@@ -116,19 +116,17 @@ void add_replay_flags(CLI::App& cli, ReplayOptions& o) {
       "sensor_msgs/LaserScan on <ns>/scan, stamped with the log's times; once at the start the "
       "base -> laser transform on /tf_static. Not with --secure");
   cli.add_option("--ros-namespace", o.ros_namespace,
-                 "with --ros: ROS namespace of the topics and frames (\"/\" = none)")
+                 "ROS namespace of the topics and frames (\"/\" = none)")
       ->default_str("/<robot-id>")
       ->needs(ros);
-  cli.add_option("--odom-frame", o.odom_frame,
-                 "with --ros: odometry frame id (under the namespace)")
+  cli.add_option("--odom-frame", o.odom_frame, "odometry frame id (under the namespace)")
       ->capture_default_str()
       ->needs(ros);
-  cli.add_option("--base-frame", o.base_frame,
-                 "with --ros: robot base frame id (under the namespace)")
+  cli.add_option("--base-frame", o.base_frame, "robot base frame id (under the namespace)")
       ->capture_default_str()
       ->needs(ros);
   cli.add_option("--laser-frame", o.laser_frame,
-                 "with --ros: laser frame id (under the namespace), the scans' frame")
+                 "laser frame id (under the namespace), the scans' frame")
       ->capture_default_str()
       ->needs(ros);
   cli.add_option_function<std::string>(
@@ -140,7 +138,7 @@ void add_replay_flags(CLI::App& cli, ReplayOptions& o) {
              throw CLI::ValidationError("--laser-pose", e.what());
            }
          },
-         "with --ros: the laser's mount on the base, X,Y in metres and YAW in degrees "
+         "the laser's mount on the base, X,Y in metres and YAW in degrees "
          "(/tf_static base -> laser)")
       ->type_name("X,Y,YAW_DEG")
       ->default_str("0,0,0")
