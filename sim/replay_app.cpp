@@ -25,23 +25,33 @@ constexpr std::chrono::milliseconds kPoll{100};
 /// At the end, how long to wait for the readers to acknowledge the last scans.
 constexpr std::chrono::seconds kFinalAckTimeout{10};
 
-/// Waits until every matched reader acknowledged every scan written, checking the stop flag;
-/// warns once if that takes long. Returns the seconds waited.
-double wait_for_acks(const dds::ScanWriter& writer, std::uint32_t seq,
-                     const std::atomic<bool>& stop) {
+}  // namespace
+
+double ReplayApp::wait_for_acks() {
   const auto start = Clock::now();
   bool warned = false;
-  while (!writer.wait_for_acknowledgments(kPoll) && !stop.load()) {
+  while (!acknowledged(kPoll) && !stop_.load()) {
     if (!warned && Clock::now() - start > std::chrono::seconds(5)) {
-      spdlog::warn("scans up to seq {} not acknowledged for 5 s by {} reader(s); waiting", seq,
-                   writer.matched_readers());
+      spdlog::warn("scans up to seq {} not acknowledged for 5 s by {} reader(s); waiting", seq_ - 1,
+                   matched_readers());
       warned = true;
     }
   }
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
-}  // namespace
+int ReplayApp::matched_readers() const {
+  return ros_ ? ros_->matched_scan_readers() : writer_->matched_readers();
+}
+
+std::string ReplayApp::scan_topic() const {
+  return ros_ ? ros_->scan_topic() : std::string(writer_->topic_name());
+}
+
+bool ReplayApp::acknowledged(std::chrono::milliseconds timeout) const {
+  return ros_ ? ros_->wait_for_acknowledgments(timeout)
+              : writer_->wait_for_acknowledgments(timeout);
+}
 
 ReplayApp::ReplayApp(ReplayOptions options, const std::atomic<bool>& stop)
     : o_(std::move(options)), stop_(stop) {
@@ -66,6 +76,20 @@ ReplayApp::ReplayApp(ReplayOptions options, const std::atomic<bool>& stop)
   } catch (const std::exception& e) {
     throw UsageError(fmt::format("DDS participant on domain {}: {}", o_.domain, e.what()));
   }
+  if (o_.ros) {
+    app::setup_step("DDS ROS 2 writers in namespace " + o_.ros_ns(), [&] {
+      ros_ = std::make_unique<RosReplayWriter>(
+          *node_, RosReplayWriter::Config{o_.ros_ns(), o_.odom_frame, o_.base_frame, o_.laser_frame,
+                                          o_.laser_pose, o_.odometry});
+    });
+    spdlog::info("ROS 2: {} in frame {}{}; /tf_static {} -> {}", ros_->scan_topic(),
+                 ros_->laser_frame(),
+                 o_.odometry ? fmt::format(", {} and /tf {} -> {}", ros_->odom_topic(),
+                                           ros_->odom_frame(), ros_->base_frame())
+                             : std::string(),
+                 ros_->base_frame(), ros_->laser_frame());
+    return;
+  }
   try {
     // In the robot's partition: readers of this robot get only its scans (docs/security.md).
     writer_ = std::make_unique<dds::ScanWriter>(*node_, o_.robot_id);
@@ -76,11 +100,17 @@ ReplayApp::ReplayApp(ReplayOptions options, const std::atomic<bool>& stop)
 
 ReplayApp::~ReplayApp() {
   writer_.reset();  // before the node (node.hpp)
+  ros_.reset();
   node_.reset();
 }
 
 int ReplayApp::run() {
   wait_for_readers();
+  // The laser mount, once, stamped with the log's first time (transient-local: late joiners
+  // get it too).
+  if (ros_ && !stop_.load() && !ros_->publish_static(scans_.front().stamp)) {
+    spdlog::warn("DDS refused the /tf_static transform");
+  }
   const auto start = Clock::now();
   const double ack_wait_s = send_scans(start);
   const double send_s = std::chrono::duration<double>(Clock::now() - start).count();
@@ -89,39 +119,47 @@ int ReplayApp::run() {
   // Scans still in flight die with the process unless the readers have them; bounded wait.
   const auto final_timeout =
       interrupted ? std::chrono::milliseconds(1000) : std::chrono::milliseconds(kFinalAckTimeout);
-  const bool acked = writer_->wait_for_acknowledgments(final_timeout);
+  const bool acked = acknowledged(final_timeout);
   if (!acked) {
-    spdlog::warn("{} reader(s) did not acknowledge every scan within {} s",
-                 writer_->matched_readers(), final_timeout.count() / 1000);
+    spdlog::warn("{} reader(s) did not acknowledge every scan within {} s", matched_readers(),
+                 final_timeout.count() / 1000);
   }
-  const std::uint64_t sent = writer_->samples_written();
+  const std::uint64_t sent = ros_ ? ros_->scans_written() : writer_->samples_written();
+  const std::uint64_t bytes = ros_ ? ros_->bytes_written() : writer_->bytes_written();
+  const std::uint64_t failures = ros_ ? ros_->write_failures() : writer_->write_failures();
   spdlog::info(
-      "{}sent {} scans{} in {:.2f} s: {:.0f} scans/s, {:.1f} kB; {:.2f} s waiting for "
-      "acknowledgments; {} write failures; {} reader(s), {}",
+      "{}sent {} scans{}{} in {:.2f} s: {:.0f} scans/s, {:.1f} kB; {:.2f} s waiting for "
+      "acknowledgments; {} write failures; {} reader(s){}, {}",
       interrupted ? "interrupted: " : "", sent,
-      seq_ > 0 ? fmt::format(" (seq 0..{})", seq_ - 1) : std::string(), send_s,
-      send_s > 0 ? static_cast<double>(sent) / send_s : 0.0,
-      static_cast<double>(writer_->bytes_written()) / 1e3, ack_wait_s, writer_->write_failures(),
-      writer_->matched_readers(), acked ? "all acknowledged" : "NOT all acknowledged");
+      seq_ > 0 ? fmt::format(" (seq 0..{})", seq_ - 1) : std::string(),
+      ros_ ? fmt::format(" on {} with {} odometry on {} and /tf", ros_->scan_topic(),
+                         ros_->odometry_written(), ros_->odom_topic())
+           : std::string(),
+      send_s, send_s > 0 ? static_cast<double>(sent) / send_s : 0.0,
+      static_cast<double>(bytes) / 1e3, ack_wait_s, failures, matched_readers(),
+      ros_ ? " of " + ros_->scan_topic() : std::string(),
+      acked ? "all acknowledged" : "NOT all acknowledged");
   writer_.reset();  // before the node (node.hpp)
+  ros_.reset();
   return interrupted ? app::kExitInterrupted : app::kExitOk;
 }
 
 void ReplayApp::wait_for_readers() {
   if (o_.wait_subscribers <= 0) return;
   spdlog::info("waiting up to {} s for {} reader(s) of {} on domain {}", o_.wait_timeout,
-               o_.wait_subscribers, writer_->topic_name(), o_.domain);
+               o_.wait_subscribers, scan_topic(), o_.domain);
   const auto deadline = Clock::now() + std::chrono::duration<double>(o_.wait_timeout);
   while (!stop_.load() && Clock::now() < deadline &&
-         !writer_->wait_for_matched(o_.wait_subscribers, kPoll)) {
+         !(ros_ ? ros_->wait_for_scan_readers(o_.wait_subscribers, kPoll)
+                : writer_->wait_for_matched(o_.wait_subscribers, kPoll))) {
   }
   if (stop_.load()) {
     // Stopped before the first scan: nothing was sent.
-  } else if (writer_->matched_readers() < o_.wait_subscribers) {
-    spdlog::warn("only {} of {} reader(s) matched after {} s: starting anyway",
-                 writer_->matched_readers(), o_.wait_subscribers, o_.wait_timeout);
+  } else if (matched_readers() < o_.wait_subscribers) {
+    spdlog::warn("only {} of {} reader(s) matched after {} s: starting anyway", matched_readers(),
+                 o_.wait_subscribers, o_.wait_timeout);
   } else {
-    spdlog::info("{} reader(s) matched: starting", writer_->matched_readers());
+    spdlog::info("{} reader(s) matched: starting", matched_readers());
   }
 }
 
@@ -139,14 +177,14 @@ double ReplayApp::send_scans(std::chrono::steady_clock::time_point start) {
       if (stop_.load()) break;
     }
     if (!o_.odometry) scans_[i].odometry.reset();
-    if (!writer_->write(dds::scan_to_msg(o_.robot_id, seq_, scans_[i]))) {
-      spdlog::warn("DDS refused scan seq {}", seq_);
-    }
+    const bool written = ros_ ? ros_->publish(scans_[i])
+                              : writer_->write(dds::scan_to_msg(o_.robot_id, seq_, scans_[i]));
+    if (!written) spdlog::warn("DDS refused scan seq {}", seq_);
     ++seq_;
-    if (seq_ % kAckWindow == 0) ack_wait_s += wait_for_acks(*writer_, seq_ - 1, stop_);
+    if (seq_ % kAckWindow == 0) ack_wait_s += wait_for_acks();
     if (seq_ % every == 0 || seq_ == scans_.size()) {
       spdlog::info("scan {}/{} (log time {:.1f} s), {} reader(s)", seq_, scans_.size(),
-                   scans_[i].stamp - scans_.front().stamp, writer_->matched_readers());
+                   scans_[i].stamp - scans_.front().stamp, matched_readers());
     }
   }
   return ack_wait_s;

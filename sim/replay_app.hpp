@@ -11,10 +11,15 @@
 // reader has acknowledged all of them. The writer heartbeats every 100 ms, so the pace at
 // --rate 0 is about kAckWindow scans per heartbeat round trip.
 //
+// With --ros it publishes what a ROS 2 robot would instead (ros_replay_writer.hpp): odometry,
+// /tf and sensor_msgs/LaserScan per scan under the ROS namespace, /tf_static once; the same
+// pacing, and the acknowledgment window over all those writers.
+//
 // Life cycle: the constructor reads the log, then creates the DDS participant and the scan
-// writer (in the robot's partition); run() waits for the readers (--wait-subscribers), sends
-// the scans, waits a bounded time for the last acknowledgments and reports; the destructor
-// deletes the writer before the participant.
+// writer (in the robot's partition), or the ROS writers (default partition); run() waits for
+// the readers (--wait-subscribers: of the scan topic), sends the scans, waits a bounded time
+// for the last acknowledgments and reports; the destructor deletes the writers before the
+// participant.
 
 #include <atomic>
 #include <chrono>
@@ -25,6 +30,7 @@
 #include "esfleet/dds/node.hpp"
 #include "esfleet/dds/writer.hpp"
 #include "replay_options.hpp"
+#include "ros_replay_writer.hpp"
 
 namespace esfleet::sim {
 
@@ -54,6 +60,14 @@ class ReplayApp {
   /// Sends every scan at the --rate pace (scan i due at its log time since the first, divided
   /// by the rate, after `start`); returns the seconds spent waiting for acknowledgments.
   double send_scans(std::chrono::steady_clock::time_point start);
+  /// Waits until the readers acknowledged everything written (see the file comment), checking
+  /// the stop flag; returns the seconds waited.
+  double wait_for_acks();
+
+  // The writers of either mode: esfleet's scan topic or the ROS topics (--ros).
+  int matched_readers() const;
+  std::string scan_topic() const;
+  bool acknowledged(std::chrono::milliseconds timeout) const;
 
   ReplayOptions o_;
   const std::atomic<bool>& stop_;
@@ -61,7 +75,8 @@ class ReplayApp {
   std::uint32_t seq_ = 0;  ///< next scan seq
   // Declared last, destroyed first: the writer before the node (node.hpp).
   std::unique_ptr<dds::Node> node_;
-  std::unique_ptr<dds::ScanWriter> writer_;
+  std::unique_ptr<dds::ScanWriter> writer_;  ///< null with --ros
+  std::unique_ptr<RosReplayWriter> ros_;     ///< with --ros only
 };
 
 }  // namespace esfleet::sim
