@@ -95,8 +95,15 @@ RosScanSource::RosScanSource(dds::Node& node, const RosNames& names, const RosOp
         const auto now = Clock::now();
         last_arrival_ = now;
         if (m.ranges().size() > dds::kMaxRosScanBeams) {
-          // Not even queued: checked (and counted) on the main thread from an empty copy.
+          // Not queued whole: the main thread refuses (and counts) it from a stand-in of
+          // kMaxRosScanBeams + 1 zero readings.
           sensor_msgs::msg::LaserScan huge;
+          huge.header(m.header());
+          huge.angle_min(m.angle_min());
+          huge.angle_max(m.angle_max());
+          huge.angle_increment(m.angle_increment());
+          huge.range_min(m.range_min());
+          huge.range_max(m.range_max());
           huge.ranges().resize(dds::kMaxRosScanBeams + 1);
           push_bounded(scans_, Arrived{std::move(huge), meta.writer_guid, now});
         } else {
