@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <thread>
+#include <vector>
 
 #include "esfleet/dds/ros_msg.hpp"
 
@@ -203,7 +204,7 @@ std::optional<Pose2> RosScanSource::odometry_at(double stamp) const {
   return std::nullopt;
 }
 
-std::optional<LaserScan> RosScanSource::convert(const Arrived& a) {
+std::optional<LaserScan> RosScanSource::check(const Arrived& a) {
   LaserScan scan;
   try {
     scan = dds::scan_from_ros(a.msg);
@@ -227,6 +228,13 @@ std::optional<LaserScan> RosScanSource::convert(const Arrived& a) {
              std::to_string(*last_stamp_) + " s");
     return std::nullopt;
   }
+  last_stamp_ = scan.stamp;
+  return scan;
+}
+
+std::optional<LaserScan> RosScanSource::convert(const Arrived& a) {
+  std::optional<LaserScan> scan = check(a);
+  if (!scan) return std::nullopt;
   if (mount_from_.empty()) {
     // Walk /tf_static from the laser up to the base.
     Pose2 laser_in_base;
@@ -245,34 +253,44 @@ std::optional<LaserScan> RosScanSource::convert(const Arrived& a) {
     }
   }
   if (!names_.odom_topic.empty() || names_.odom_from_tf) {
-    const std::optional<Pose2> base = odometry_at(scan.stamp);
+    const std::optional<Pose2> base = odometry_at(scan->stamp);
     if (!base) {
       drop("scan_without_odometry", a.sender,
-           "no odometry near stamp " + std::to_string(scan.stamp) + " s");
+           "no odometry near stamp " + std::to_string(scan->stamp) + " s");
       return std::nullopt;
     }
-    scan.odometry = base->compose(mount_);  // the laser's odometry
+    scan->odometry = base->compose(mount_);  // the laser's odometry
   }
-  last_stamp_ = scan.stamp;
   ++used_;
   return scan;
 }
 
 std::optional<LaserScan> RosScanSource::next(const std::atomic<bool>& stop) {
+  return take(stop, /*wait=*/true);
+}
+
+std::optional<LaserScan> RosScanSource::poll(const std::atomic<bool>& stop) {
+  return take(stop, /*wait=*/false);
+}
+
+std::optional<LaserScan> RosScanSource::take(const std::atomic<bool>& stop, bool wait) {
   const bool needs_odometry = !names_.odom_topic.empty() || names_.odom_from_tf;
   while (!stop.load()) {
     std::unique_lock lock(mutex_);
-    arrived_.wait_for(lock, kPoll, [this] { return !scans_.empty(); });
+    if (wait) arrived_.wait_for(lock, kPoll, [this] { return !scans_.empty(); });
     if (!scans_.empty()) {
+      std::vector<Arrived> skipped;
       while (latest_only_ && scans_.size() > 1) {
+        skipped.push_back(std::move(scans_.front()));
         scans_.pop_front();
-        ++skipped_;
       }
       // Copies, not a reference: a full queue drops its oldest entry from the DDS thread.
       const Clock::time_point front_at = scans_.front().at;
       const auto& st = scans_.front().msg.header().stamp();
       const double front_stamp = static_cast<double>(st.sec()) + 1e-9 * st.nanosec();
       lock.unlock();
+      // Skipped scans are still checked: every broken message is counted.
+      for (const Arrived& a : skipped) skipped_ += check(a) ? 1 : 0;
       drain_side_queues();
       const bool may_wait = Clock::now() - front_at < kOdometryWait;
       if (needs_odometry && may_wait &&
@@ -300,6 +318,7 @@ std::optional<LaserScan> RosScanSource::next(const std::atomic<bool>& stop) {
       idle_ = true;
       return std::nullopt;
     }
+    if (!wait) return std::nullopt;
   }
   return std::nullopt;
 }
@@ -312,9 +331,9 @@ RosScanStats RosScanSource::stats() const {
   s.laser_frame = laser_frame_;
   s.mount_from = mount_from_;
   s.mount = mount_;
+  s.scans_skipped = skipped_;
   std::lock_guard lock(mutex_);
   s.scans_received = received_;
-  s.scans_skipped = skipped_;
   return s;
 }
 

@@ -21,6 +21,7 @@
 #include <set>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -53,6 +54,9 @@ class RosScanSource : public ScanSource {
   ~RosScanSource() override;
 
   std::optional<LaserScan> next(const std::atomic<bool>& stop) override;
+  /// Like next(), but returns std::nullopt as soon as no usable scan is waiting (a flood of
+  /// broken scans never holds the caller).
+  std::optional<LaserScan> poll(const std::atomic<bool>& stop) override;
   bool ended() const override { return idle_; }
   bool ready() const override;
   RosScanStats stats() const;
@@ -73,7 +77,10 @@ class RosScanSource : public ScanSource {
   };
   /// Main thread: odometry and static transforms that arrived since the last call.
   void drain_side_queues();
-  /// Main thread: checks and converts one scan; std::nullopt if dropped.
+  std::optional<LaserScan> take(const std::atomic<bool>& stop, bool wait);
+  /// Main thread: checks one scan (fields, frame, order of stamps); std::nullopt if dropped.
+  std::optional<LaserScan> check(const Arrived& a);
+  /// Main thread: check() plus the laser mount and the odometry; std::nullopt if dropped.
   std::optional<LaserScan> convert(const Arrived& a);
   /// Main thread: the base's odometry at `stamp`, if the buffer brackets it (or is close).
   std::optional<Pose2> odometry_at(double stamp) const;
@@ -100,6 +107,7 @@ class RosScanSource : public ScanSource {
   std::set<std::pair<std::string, std::string>> logged_;  ///< (sender, kind)
   std::uint64_t used_ = 0;
   std::uint64_t odometry_received_ = 0;
+  std::uint64_t skipped_ = 0;  ///< latest_only: valid scans passed over for a newer one
 
   mutable std::mutex mutex_;  ///< guards the queues below
   std::condition_variable arrived_;
@@ -109,7 +117,6 @@ class RosScanSource : public ScanSource {
   std::deque<std::pair<tf2_msgs::msg::TFMessage, std::string>> tf_statics_;
   std::optional<Clock::time_point> last_arrival_;
   std::uint64_t received_ = 0;
-  std::uint64_t skipped_ = 0;
 
   // last: destroyed first, so no callback outlives the queues
   std::unique_ptr<dds::RosOdomReader> odom_reader_;

@@ -30,6 +30,11 @@ class ScanSource {
   /// The next scan, blocking until it is due (log) or arrives (topic); std::nullopt once the
   /// source has ended or `stop` is set.
   virtual std::optional<LaserScan> next(const std::atomic<bool>& stop) = 0;
+  /// For loops that serve DDS between scans: the next scan if one is ready, std::nullopt at
+  /// once otherwise (then ended() tells whether the source has ended).
+  virtual std::optional<LaserScan> poll(const std::atomic<bool>& stop) {
+    return ready() ? next(stop) : std::nullopt;
+  }
   /// True once next() returned std::nullopt because the source ran out by itself (end of the
   /// log, --idle-exit), not because of `stop`.
   virtual bool ended() const = 0;

@@ -187,7 +187,7 @@ bool FollowerApp::next_scan() {
     }
   }
   const bool was_tracking = localisation_.state() == LocaliserState::kTracking;
-  if (auto scan = source_->next(stop_)) {
+  if (auto scan = source_->poll(stop_)) {
     const LocaliserStep step = localisation_.process(map_->replica(), *scan);
     publish_ros_pose(*scan, step);
     if (pose_writer_) {
@@ -273,7 +273,7 @@ nlohmann::json FollowerApp::stats_json(const char* why) const {
       {"map_id", replica.map_id()},
       {"epoch", replica.epoch()},
       {"complete", replica.complete()},
-      {"tiles", replica.map().tile_count()},
+      {"tiles", replica.has_map() ? replica.map().tile_count() : 0},
       {"tiles_received", s.tiles_received},
       {"tiles_applied", s.tiles_applied},
       {"tiles_stale", s.tiles_stale},
@@ -336,7 +336,13 @@ bool FollowerApp::save(const char* why) const {
   }
   if (o_.save_dir.empty()) return ok;
   if (!map_->replica().has_map()) {
-    spdlog::warn("no map received yet: nothing to save in {}", o_.save_dir);
+    spdlog::warn("no map received yet: only stats.json saved in {}", o_.save_dir);
+    try {
+      std::filesystem::create_directories(o_.save_dir);
+      write_file_atomically(o_.save_dir + "/stats.json", stats_json(why).dump(2) + "\n");
+    } catch (const std::exception& e) {
+      spdlog::error("saving stats.json to {}: {}", o_.save_dir, e.what());
+    }
     return false;
   }
   try {

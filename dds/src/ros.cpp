@@ -1,5 +1,7 @@
 #include "esfleet/dds/ros.hpp"
 
+#include <algorithm>
+
 namespace esfleet::dds {
 namespace {
 
@@ -37,9 +39,10 @@ TopicQos endpoint(std::string_view full_name, bool reliable, bool transient_loca
 
 std::string ros_name(std::string_view ns, std::string_view name) {
   check_tokens(name, "name", name);
+  const bool root = ns.empty() || ns == "/";
+  if (!root) check_tokens(ns, "namespace", ns);
   if (name.front() == '/') return std::string(name);
-  if (ns.empty() || ns == "/") return std::string("/").append(name);
-  check_tokens(ns, "namespace", ns);
+  if (root) return std::string("/").append(name);
   std::string full;
   if (ns.front() != '/') full += '/';
   full.append(ns);
@@ -55,7 +58,11 @@ std::string ros_dds_topic(std::string_view full_name) {
 }
 
 std::string ros_frame(std::string_view ns, std::string_view frame) {
-  std::string prefix = ns.empty() || ns == "/" ? std::string() : std::string(ns);
+  check_tokens(frame, "frame", frame);
+  if (frame.front() == '/') frame.remove_prefix(1);
+  const bool root = ns.empty() || ns == "/";
+  if (!root) check_tokens(ns, "namespace", ns);
+  std::string prefix = root ? std::string() : std::string(ns);
   if (!prefix.empty() && prefix.front() == '/') prefix.erase(0, 1);
   return prefix.empty() ? std::string(frame) : prefix + "/" + std::string(frame);
 }

@@ -1,7 +1,9 @@
 #include "esfleet/dds/ros_msg.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <numbers>
 

@@ -26,6 +26,7 @@ void hostile_usage(FILE *f) {
       "    scan_ranges_mismatch     angles say 181 beams, 90 ranges\n"
       "    scan_nan_increment       angle_increment NaN\n"
       "    scan_zero_increment      angle_increment 0\n"
+      "    scan_many_beams          20,000 beams, increment 2pi/20000\n"
       "    scan_huge                1,000,000 beams, increment 2pi/1e6\n"
       "    scan_wrong_frame         a valid scan with frame_id \"not_the_laser\"\n"
       "    scan_nan_angle_min       angle_min NaN\n"
@@ -94,6 +95,32 @@ static bool send_scan(ctx_t *c, const sensor_msgs_msg_dds__LaserScan_ *s) {
   ++c->sent_total;
   pace(c);
   return true;
+}
+
+/* `repeat` scans of n_beams readings of 2 m over a full turn, consistent angles; returns how
+   many were sent. */
+static long send_long_scans(ctx_t *c, const char *frame, float *buf, long n_beams,
+                            long repeat) {
+  float *ranges = malloc(sizeof(float) * (size_t)n_beams);
+  if (ranges == NULL) {
+    fprintf(stderr, "esfleet-ros2-peer hostile: out of memory\n");
+    c->failed = true;
+    return 0;
+  }
+  for (long i = 0; i < n_beams; ++i) ranges[i] = 2.0f;
+  long sent = 0;
+  for (long k = 0; k < repeat && !c->failed; ++k) {
+    sensor_msgs_msg_dds__LaserScan_ s = valid_scan(frame, next_stamp(c), buf);
+    const double inc = 2.0 * kPi / (double)n_beams;
+    s.angle_min = (float)(-kPi);
+    s.angle_increment = (float)inc;
+    s.angle_max = (float)(-kPi + ((double)n_beams - 1.0) * inc);
+    s.ranges._length = s.ranges._maximum = (uint32_t)n_beams;
+    s.ranges._buffer = ranges;
+    if (send_scan(c, &s)) ++sent;
+  }
+  free(ranges);
+  return sent;
 }
 
 static bool send_pose(ctx_t *c, const char *frame, double x, double stamp) {
@@ -216,7 +243,7 @@ int hostile_main(int argc, char **argv) {
   sleep_seconds(settle);
 
   float buf[181];
-  long n_backwards = 0, n_mismatch = 0, n_nan_inc = 0, n_zero_inc = 0, n_huge = 0,
+  long n_backwards = 0, n_mismatch = 0, n_nan_inc = 0, n_zero_inc = 0,
        n_wrong_frame = 0, n_nan_min = 0, n_odom_nan = 0, n_pose_nan = 0, n_pose_frame = 0,
        n_valid = 0;
 
@@ -244,27 +271,10 @@ int hostile_main(int argc, char **argv) {
     s.angle_increment = 0.0f;
     if (send_scan(&c, &s)) ++n_zero_inc;
   }
-  {
-    enum { kHuge = 1000000 };
-    float *huge = malloc(sizeof(float) * kHuge);
-    if (huge == NULL) {
-      fprintf(stderr, "esfleet-ros2-peer hostile: out of memory\n");
-      c.failed = true;
-    } else {
-      for (int i = 0; i < kHuge; ++i) huge[i] = 2.0f;
-      for (long k = 0; k < repeat && !c.failed; ++k) {
-        sensor_msgs_msg_dds__LaserScan_ s = valid_scan(frame, next_stamp(&c), buf);
-        const double inc = 2.0 * kPi / 1e6;
-        s.angle_min = (float)(-kPi);
-        s.angle_increment = (float)inc;
-        s.angle_max = (float)(-kPi + (kHuge - 1.0) * inc);
-        s.ranges._length = s.ranges._maximum = kHuge;
-        s.ranges._buffer = huge;
-        if (send_scan(&c, &s)) ++n_huge;
-      }
-      free(huge);
-    }
-  }
+  /* 20,000 beams (80 kB) arrive over UDP; 1,000,000 (4 MB, best-effort to esfleet) may be
+     lost in transport when the receiver's socket buffer is smaller. */
+  const long n_many = send_long_scans(&c, frame, buf, 20000, repeat);
+  const long n_huge = send_long_scans(&c, frame, buf, 1000000, repeat);
   for (long k = 0; k < repeat; ++k) {
     sensor_msgs_msg_dds__LaserScan_ s = valid_scan("not_the_laser", next_stamp(&c), buf);
     if (send_scan(&c, &s)) ++n_wrong_frame;
@@ -304,10 +314,10 @@ int hostile_main(int argc, char **argv) {
   const bool interrupted = peer_stop != 0;
   if (!c.failed && !interrupted) sleep_seconds(linger);
   printf("{\"scan_ranges_mismatch\":%ld,\"scan_nan_increment\":%ld,\"scan_zero_increment\":%ld,"
-         "\"scan_huge\":%ld,\"scan_stamp_backwards\":%ld,\"scan_wrong_frame\":%ld,"
+         "\"scan_many_beams\":%ld,\"scan_huge\":%ld,\"scan_stamp_backwards\":%ld,\"scan_wrong_frame\":%ld,"
          "\"scan_nan_angle_min\":%ld,\"odom_nan_quaternion\":%ld,\"initialpose_nan\":%ld,"
          "\"initialpose_wrong_frame\":%ld,\"valid_scans\":%ld}\n",
-         n_mismatch, n_nan_inc, n_zero_inc, n_huge, n_backwards, n_wrong_frame, n_nan_min,
+         n_mismatch, n_nan_inc, n_zero_inc, n_many, n_huge, n_backwards, n_wrong_frame, n_nan_min,
          n_odom_nan, n_pose_nan, n_pose_frame, n_valid);
   fflush(stdout);
   dds_delete(participant);

@@ -37,14 +37,16 @@ class RosNameError : public std::invalid_argument {
 /// it is, a relative one ("scan") goes under the namespace ("/robot1" -> "/robot1/scan"; "" or
 /// "/" -> "/scan"). Both must follow ROS 2's rules: tokens of letters, digits and '_' that do
 /// not start with a digit, separated by single '/', no trailing '/' (the namespace "/" aside).
-/// Throws RosNameError naming the offending name.
+/// The namespace is checked even for an absolute name. Throws RosNameError naming the
+/// offending name.
 std::string ros_name(std::string_view ns, std::string_view name);
 
 /// The DDS topic of a fully qualified ROS name: "rt" + name ("/map" -> "rt/map").
 std::string ros_dds_topic(std::string_view full_name);
 
 /// A TF frame id under namespace `ns`: "odom" in "/robot1" -> "robot1/odom", in "/" -> "odom"
-/// (tf2 frame ids carry no leading '/').
+/// (tf2 frame ids carry no leading '/'; one given is dropped). Both follow ros_name's rules;
+/// throws RosNameError naming the offending one.
 std::string ros_frame(std::string_view ns, std::string_view frame);
 
 /// The endpoints (DDS topic + QoS, see the table above) of the ROS topics; `full_name` is a

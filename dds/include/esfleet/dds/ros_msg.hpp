@@ -33,7 +33,7 @@ class RosMessageError : public std::invalid_argument {
 /// Most beams a LaserScan may have (as the CARMEN reader: no 2D laser has more).
 inline constexpr std::size_t kMaxRosScanBeams = 10000;
 
-/// ROS time of `seconds` (>= 0, finite; otherwise time 0).
+/// ROS time of `seconds` (>= 0, finite, below 2^31 - 1 s, i.e. before 2038; otherwise time 0).
 builtin_interfaces::msg::Time ros_time(double seconds);
 /// Seconds of a ROS time; nanosec must be < 1e9 (else RosMessageError "bad_stamp").
 double seconds_of(const builtin_interfaces::msg::Time& t);
@@ -52,7 +52,9 @@ double seconds_of(const builtin_interfaces::msg::Time& t);
 /// (upside-down lasers) are kept as they are.
 LaserScan scan_from_ros(const sensor_msgs::msg::LaserScan& m);
 /// esfleet's scan as a LaserScan in frame `frame` (range_min 0, range_max = max_range,
-/// angle_max = angle_min + (n - 1) increment); scan_from_ros gives the same scan back.
+/// angle_max = angle_min + (n - 1) increment, readings as they are); scan_from_ros gives the
+/// same scan back, except that readings above max_range come back as max_range (both are
+/// no-returns).
 sensor_msgs::msg::LaserScan scan_to_ros(const LaserScan& scan, const std::string& frame);
 
 /// The planar pose of a ROS pose: x, y and the yaw of the quaternion (normalised first).
@@ -60,7 +62,7 @@ sensor_msgs::msg::LaserScan scan_to_ros(const LaserScan& scan, const std::string
 /// has norm < 1e-6.
 Pose2 pose2_from_ros(const geometry_msgs::msg::Pose& p);
 geometry_msgs::msg::Pose pose2_to_ros(const Pose2& p);
-/// The same for a transform.
+/// The same for a transform (RosMessageError "bad_transform").
 Pose2 pose2_from_ros(const geometry_msgs::msg::Transform& t);
 
 /// An odometry message's pose and stamp ("bad_odom" for a bad pose, see pose2_from_ros).
