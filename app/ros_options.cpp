@@ -72,24 +72,33 @@ void add_ros_flags(CLI::App& cli, RosOptions& o, bool leader) {
                      : "publish <ns>/pose and TF map -> <ns>/odom, take <ns>/initialpose");
   g->add_option("--ros-scan", o.scan_topic,
                 "read sensor_msgs/LaserScan from this ROS topic (relative names go under the "
-                "namespace, e.g. scan -> /robot1/scan) instead of a log");
+                "namespace, e.g. scan -> /robot1/scan) instead of a log")
+      ->type_name("TOPIC");
   g->add_option("--ros-odom", o.odom,
                 "with --ros-scan: odometry from this nav_msgs/Odometry topic (e.g. odom), or "
-                "'tf' for the odom -> base transform on /tf; default: laser only");
+                "'tf' for the odom -> base transform on /tf; default: laser only")
+      ->type_name("TOPIC|tf");
   g->add_option("--ros-namespace", o.ns,
-                "the robot's ROS namespace (default: /ROBOT_ID; '/' = none)");
-  g->add_option("--map-frame", o.map_frame, "the map's TF frame")->capture_default_str();
+                "the robot's ROS namespace (default: /ROBOT_ID; '/' = none)")
+      ->type_name("NS");
+  g->add_option("--map-frame", o.map_frame, "the map's TF frame")
+      ->type_name("FRAME")
+      ->capture_default_str();
   g->add_option("--odom-frame", o.odom_frame, "odometry frame, under the namespace")
+      ->type_name("FRAME")
       ->capture_default_str();
   g->add_option("--base-frame", o.base_frame, "robot base frame, under the namespace")
+      ->type_name("FRAME")
       ->capture_default_str();
   g->add_option("--laser-frame", o.laser_frame,
                 "the laser's frame id; scans of other frames are dropped (default: the first "
-                "scan's)");
+                "scan's)")
+      ->type_name("FRAME");
   g->add_option_function<std::string>(
       "--laser-pose", [&o](const std::string& v) { o.laser_pose = parse_pose(v); },
       "the laser's pose on the base as X,Y,YAW_DEG (default: from /tf_static with odometry, "
-      "else 0,0,0)");
+      "else 0,0,0)")
+      ->type_name("X,Y,YAW_DEG");
   if (leader) {
     g->add_option("--ros-map-period", o.map_period,
                   "seconds of scan time between whole /map messages; changed tiles go on "

@@ -624,6 +624,7 @@ TEST(RosGrid, GridHoldsEveryCellsRosValueRowMajorFromTheLowerLeft) {
   // Other thresholds give other values: p = 0.5 is occupied at 0.4.
   OccupancyThresholds low;
   low.occupied = 0.4;
+  low.min_hits = 1;
   low.free = 0.1;
   EXPECT_EQ(at(grid_to_ros(map, w, low, 0.0, "map").data(), 24, w.min, 9, -1), 100);
 
