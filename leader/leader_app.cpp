@@ -137,9 +137,9 @@ void LeaderApp::load_map() {
   for (const std::string& dir : m.dirs) {
     std::error_code ec;
     if (std::filesystem::equivalent(o_.out_dir, dir, ec)) {
-      throw app::UsageError("--out " + o_.out_dir + " is where the served map " + o_.map +
-                            " lives: give --out another directory (the map server writes "
-                            "stats.json, map.digest, map.pgm and map.yaml there)");
+      throw app::UsageError("--out " + o_.out_dir + ": the map served (--map " + o_.map +
+                            ") is there; give --out another directory (the map server writes "
+                            "stats.json, map.digest, map.pgm and map.yaml into it)");
     }
   }
   const CellClasses cells = cell_classes(m.map);

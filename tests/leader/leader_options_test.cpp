@@ -245,7 +245,7 @@ TEST(LeaderApp, MapSetUpErrorsAreUsageErrorsBeforeDds) {
       LeaderApp app(o, stop);
       ADD_FAILURE() << "no error";
     } catch (const app::UsageError& e) {
-      EXPECT_TRUE(contains(e.what(), "is where the served map")) << e.what();
+      EXPECT_TRUE(contains(e.what(), ": the map served (--map ")) << e.what();
     }
   }
 }
