@@ -109,11 +109,12 @@ std::uint64_t Checkpointer::save(const Slam& slam, const CheckpointInfo& info) {
   return map_bytes.size() + slam_bytes.size();
 }
 
-Resumed load_checkpoint(const std::string& dir, Slam& slam) {
-  const fs::path base = fs::path(dir) / "checkpoint";
+Resumed read_checkpoint(const std::string& checkpoint_dir, Slam& slam) {
+  const fs::path base = fs::path(checkpoint_dir);
   const fs::path manifest_path = base / "manifest.json";
   if (!fs::exists(manifest_path)) {
-    throw std::runtime_error(manifest_path.string() + ": missing (no checkpoint in " + dir + ")");
+    throw std::runtime_error(manifest_path.string() + ": missing (no checkpoint in " +
+                             checkpoint_dir + ")");
   }
   const nlohmann::json m = read_json(manifest_path);
   if (field<int>(m, "format", manifest_path) != kFormat) {
@@ -169,7 +170,17 @@ Resumed load_checkpoint(const std::string& dir, Slam& slam) {
     }
     r.journal.keys.insert(TileKey{t[0].get<std::int32_t>(), t[1].get<std::int32_t>()});
   }
+  return r;
+}
 
+Resumed load_checkpoint(const std::string& dir, Slam& slam) {
+  const fs::path base = fs::path(dir) / "checkpoint";
+  const fs::path manifest_path = base / "manifest.json";
+  if (!fs::exists(manifest_path)) {
+    throw std::runtime_error(manifest_path.string() + ": missing (no checkpoint in " + dir + ")");
+  }
+  Resumed r = read_checkpoint(base.string(), slam);
+  const fs::path journal_path = base / "journal.json";
   // Supersede everything published before: every tile (and every tile followers may hold that
   // the checkpoint lacks, empty) at a version above anything the dead leader could have sent.
   try {

@@ -79,6 +79,14 @@ struct Resumed {
   std::uint64_t new_version = 0;        ///< every tile's version after resume
 };
 
+/// Loads the checkpoint in `checkpoint_dir` (the directory holding manifest.json, e.g.
+/// OUT/checkpoint) into `slam` (fresh, built with the same map layout: its map must be empty)
+/// exactly as saved: every tile's counters and version, the SLAM state, and the publish journal,
+/// without superseding anything (esfleet-leader --map serves the map as saved):
+/// `tiles_added_empty` and `new_version` stay 0.
+/// Throws std::runtime_error naming the file and field on a missing or corrupt checkpoint.
+Resumed read_checkpoint(const std::string& checkpoint_dir, Slam& slam);
+
 /// Loads DIR/checkpoint into `slam` (fresh, built with the same config: its map must be empty),
 /// then supersedes what was published (mapshare::supersede): every tile gets version journal
 /// ceiling + 1, journal tiles the snapshot lacks are created empty, the ceiling is raised past

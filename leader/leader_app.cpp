@@ -3,12 +3,17 @@
 #include <spdlog/spdlog.h>
 
 #include <chrono>
+#include <filesystem>
+#include <system_error>
 #include <thread>
 #include <vector>
 
 #include "app/program.hpp"
 #include "app/summary.hpp"
 #include "esfleet/core/clock.hpp"
+#include "esfleet/core/file_io.hpp"
+#include "esfleet/core/ros_map_writer.hpp"
+#include "esfleet/core/tile_codec.hpp"
 #include "esfleet/dds/to_msg.hpp"
 
 namespace esfleet::leader {
@@ -75,6 +80,11 @@ nlohmann::json dds_stats(const PublishStats& p, const LeaderOptions& o, double i
 
 LeaderApp::LeaderApp(LeaderOptions options, const std::atomic<bool>& stop)
     : o_(std::move(options)), stop_(stop), params_json_(params_json(o_).dump()), slam_(o_.slam) {
+  if (o_.serving_map()) {  // a map server: no SLAM, no scans, no checkpoints
+    load_map();
+    open_dds();
+    return;
+  }
   if (!o_.resume_dir.empty()) resume_checkpoint();
   if (!o_.log.empty()) read_log();
   spdlog::info("SLAM parameters: {}{}; all {} in stats.json and at --log-level debug",
@@ -113,6 +123,53 @@ void LeaderApp::resume_checkpoint() {
       "the followers may hold), all republished at version {}",
       *o_.map_id, *o_.epoch, o_.resume_dir, resumed_->info.scans, resumed_->info.input,
       slam_.map().tile_count(), resumed_->tiles_added_empty, resumed_->new_version);
+}
+
+void LeaderApp::load_map() {
+  app::setup_step("", [&] {
+    try {
+      served_ = load_served_map(o_.map, o_.slam);
+    } catch (const std::exception& e) {
+      throw std::runtime_error(app::name_flag("--map", o_.map, e.what()));
+    }
+  });
+  const ServedMap& m = *served_;
+  for (const std::string& dir : m.dirs) {
+    std::error_code ec;
+    if (std::filesystem::equivalent(o_.out_dir, dir, ec)) {
+      throw app::UsageError("--out " + o_.out_dir + ": the map served (--map " + o_.map +
+                            ") is there; give --out another directory (the map server writes "
+                            "stats.json, map.digest, map.pgm and map.yaml into it)");
+    }
+  }
+  const CellClasses cells = cell_classes(m.map);
+  if (m.checkpoint) {
+    if (!o_.map_id) o_.map_id = m.checkpoint->map_id;
+    params_json_ = m.checkpoint->params_json;
+    spdlog::info(
+        "serving the checkpoint {} (map '{}', epoch {}, {} scans of {}) as saved: {} tiles of "
+        "{} cells, {} m per cell",
+        m.file, m.checkpoint->map_id, m.checkpoint->epoch, m.checkpoint->scans, m.checkpoint->input,
+        m.map.tile_count(), m.map.cells_per_tile(), m.map.cell_size());
+  } else {
+    params_json_ = "{}";
+    spdlog::info(
+        "serving the ROS map {}: cell value v -> hit round(v/20), err 5 - hit; {} tiles of {} "
+        "cells, {} m per cell",
+        m.file, m.map.tile_count(), m.map.cells_per_tile(), m.map.cell_size());
+    if (!m.placement->aligned()) {
+      spdlog::warn(
+          "{}: the origin is not a whole number of {} m cells: the map moves by ({:+.4f}, "
+          "{:+.4f}) m (each pixel goes to the cell holding its centre)",
+          m.file, m.map.cell_size(), m.placement->shift_x, m.placement->shift_y);
+    }
+    if (m.origin_theta != 0.0) {
+      spdlog::warn("{}: origin yaw {} rad ignored (as most ROS tools do)", m.file, m.origin_theta);
+    }
+  }
+  spdlog::info("map cells (as ROS reads them): {} occupied, {} free, {} unknown", cells.occupied,
+               cells.free, cells.unknown);
+  if (m.map.known_bounds().empty) spdlog::warn("{}: the map has no known cell", m.file);
 }
 
 void LeaderApp::read_log() {
@@ -173,7 +230,7 @@ void LeaderApp::open_ros() {
     }
     if (o_.ros.outputs) {
       ros_map_ = std::make_unique<RosMapOutput>(*node_, names.map_frame, o_.ros.map_period);
-      ros_pose_ = std::make_unique<app::RosPoseOutput>(*node_, names);
+      if (!served_) ros_pose_ = std::make_unique<app::RosPoseOutput>(*node_, names);
     }
   });
   if (ros_scan_ != nullptr) {
@@ -184,7 +241,10 @@ void LeaderApp::open_ros() {
                  o_.idle_exit > 0 ? fmt::format("ending {} s after the last one", o_.idle_exit)
                                   : std::string("until stopped (Ctrl-C)"));
   }
-  if (ros_map_) {
+  if (ros_map_ && served_) {
+    spdlog::info("ROS 2: /map (frame {}) at once and every {} s", names.map_frame,
+                 o_.ros.map_period);
+  } else if (ros_map_) {
     spdlog::info(
         "ROS 2: /map every {} s of scan time, /map_updates in between, pose on {}, TF "
         "{} -> {}",
@@ -233,6 +293,7 @@ void LeaderApp::on_scan(const LaserScan& scan, const SlamStep& step, std::size_t
 }
 
 int LeaderApp::run() {
+  if (served_) return serve_map();
   if (resumed_ && publisher_) {
     // Supersede what the dead leader published now, not at the next scan (which may be long).
     publisher_->republish_all(slam_.map());
@@ -341,6 +402,110 @@ void LeaderApp::serve(const SlamRunStats& stats) {
   while (!stop_.load() && Clock::now() < until) {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
   }
+}
+
+void LeaderApp::publish_served(bool tiles, bool ros) {
+  const double now = static_cast<double>(realtime_ns()) * 1e-9;
+  const auto scans =
+      static_cast<std::uint32_t>(served_->checkpoint ? served_->checkpoint->scans : 0);
+  if (tiles) publisher_->publish_map(served_->map, now, true, scans, params_json_);
+  if (ros && ros_map_) ros_map_->publish(served_->map, now, true);
+}
+
+int LeaderApp::serve_map() {
+  using Clock = std::chrono::steady_clock;
+  const auto start = Clock::now();
+  publisher_->republish_all(served_->map);  // every tile whole in the first publish
+  publish_served(true, true);
+  spdlog::info(
+      "published map '{}' epoch {}: {} tiles, complete; serving it {}", *o_.map_id, *o_.epoch,
+      publisher_->stats().tiles,
+      o_.linger < 0 ? std::string("until stopped (Ctrl-C)") : fmt::format("for {} s", o_.linger));
+  int code = app::kExitOk;
+  try {
+    std::filesystem::create_directories(o_.out_dir);
+    save_ros_map(served_->map, o_.out_dir, "map");
+    write_file_atomically(o_.out_dir + "/map.digest", map_digest(served_->map));
+  } catch (const std::exception& e) {
+    spdlog::error("writing the served map to {}: {}", o_.out_dir, e.what());
+    code = app::kExitFailure;
+  }
+  const auto period = [](double s) { return std::chrono::duration<double>(s); };
+  const auto until = start + period(o_.linger < 0 ? 1e9 : o_.linger);
+  auto last_publish = start;
+  auto last_ros = start;
+  while (!stop_.load() && Clock::now() < until) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    // The summary (and the tiles a late joiner may lack) every publish period, /map every
+    // ROS map period.
+    const auto now = Clock::now();
+    const bool tiles = now - last_publish >= period(o_.publish_period);
+    const bool ros = ros_map_ && now - last_ros >= period(o_.ros.map_period);
+    if (tiles) last_publish = now;
+    if (ros) last_ros = now;
+    if (tiles || ros) publish_served(tiles, ros);
+  }
+  const double served_s = std::chrono::duration<double>(Clock::now() - start).count();
+  const char* ended = stop_.load() ? "signal" : "linger";
+  if (!publisher_->flush(std::chrono::seconds(2))) {
+    spdlog::warn("not every follower acknowledged the last samples");
+  }
+  const PublishStats& p = publisher_->stats();
+  spdlog::info("served the map for {:.1f} s ({}): {} publishes, {} tiles, {:.1f} kB", served_s,
+               ended, p.publishes, p.tiles, static_cast<double>(p.tile_bytes + p.meta_bytes) / 1e3);
+  try {
+    write_file_atomically(o_.out_dir + "/stats.json", served_stats(served_s, ended).dump(2) + "\n");
+  } catch (const std::exception& e) {
+    spdlog::error("writing {}/stats.json: {}", o_.out_dir, e.what());
+    code = app::kExitFailure;
+  }
+  return code;
+}
+
+nlohmann::json LeaderApp::served_stats(double served_s, const char* ended) const {
+  const ServedMap& m = *served_;
+  const CellClasses cells = cell_classes(m.map);
+  const PublishStats& p = publisher_->stats();
+  nlohmann::json j = {
+      {"source", m.path},
+      {"kind", to_string(m.kind)},
+      {"file", m.file},
+      {"map_id", *o_.map_id},
+      {"epoch", *o_.epoch},
+      {"complete", true},
+      {"scans", m.checkpoint ? m.checkpoint->scans : 0},
+      {"tiles", m.map.tile_count()},
+      {"tile_edge", m.map.tile_edge()},
+      {"cell_size", m.map.cell_size()},
+      {"cells", {{"occupied", cells.occupied}, {"free", cells.free}, {"unknown", cells.unknown}}},
+      {"served_s", served_s},
+      {"ended", ended},
+      {"publishes", p.publishes},
+      {"dds",
+       {{"domain", o_.domain},
+        {"publish_period_s", o_.publish_period},
+        {"tiles_published", p.tiles},
+        {"tile_bytes", p.tile_bytes},
+        {"meta_bytes", p.meta_bytes},
+        {"bytes_total", p.tile_bytes + p.delta_bytes + p.meta_bytes},
+        {"joiner_refreshes", p.joiner_refreshes},
+        {"write_failures", p.write_failures}}},
+  };
+  if (m.checkpoint) {
+    j["checkpoint"] = {{"map_id", m.checkpoint->map_id},
+                       {"epoch", m.checkpoint->epoch},
+                       {"scans", m.checkpoint->scans},
+                       {"input", m.checkpoint->input}};
+  }
+  if (m.placement) {
+    j["origin_shift_m"] = {m.placement->shift_x, m.placement->shift_y};
+    j["origin_yaw_ignored_rad"] = m.origin_theta;
+  }
+  if (ros_map_) {
+    j["ros"] = ros_map_->stats().json();
+    j["ros"]["map_period_s"] = o_.ros.map_period;
+  }
+  return j;
 }
 
 }  // namespace esfleet::leader

@@ -5,6 +5,11 @@
 // every publish period, checkpoints, writes the results and serves the map until it is told to
 // stop; the destructor tears down in reverse (the scan reader and the writers before the DDS
 // participant).
+//
+// With --map (a map server) the constructor loads the saved map instead (load_map) and opens
+// DDS; run() publishes it at once, complete, and serves it (serve_map): the summary every
+// publish period (and any tile a late joiner needs), /map every ROS map period, all in wall
+// time, until stopped or --linger. No SLAM runs.
 
 #include <atomic>
 #include <memory>
@@ -22,6 +27,7 @@
 #include "leader_options.hpp"
 #include "map_publisher.hpp"
 #include "ros_map_output.hpp"
+#include "served_map.hpp"
 #include "slam_run.hpp"
 
 namespace esfleet::leader {
@@ -30,19 +36,30 @@ class LeaderApp {
  public:
   /// `stop` (set by SIGINT/SIGTERM) ends the mapping and the serving early. Throws
   /// app::UsageError naming the step and the cause: a checkpoint that cannot be resumed, a log
-  /// that cannot be read, a DDS participant or endpoint that cannot be created, a checkpoint
-  /// directory that cannot be written.
+  /// that cannot be read, a saved map (--map) that cannot be loaded or an --out that is its own
+  /// directory, a DDS participant or endpoint that cannot be created, a checkpoint directory
+  /// that cannot be written.
   LeaderApp(LeaderOptions options, const std::atomic<bool>& stop);
   ~LeaderApp();
   LeaderApp(const LeaderApp&) = delete;
   LeaderApp& operator=(const LeaderApp&) = delete;
 
   /// Maps, publishes, writes the results and serves the map. Returns the exit code: 0 done,
-  /// 1 the results could not be written or no scan came, 130 interrupted.
+  /// 1 the results could not be written or no scan came, 130 interrupted. A map server
+  /// (--map) returns 0 when stopped or at the end of --linger, 1 if its outputs could not be
+  /// written.
   int run();
 
  private:
   void resume_checkpoint();
+  /// --map: loads the saved map (served_map.hpp), takes its map id, checks --out.
+  void load_map();
+  /// --map: publishes the saved map at once and serves it; returns the exit code.
+  int serve_map();
+  /// --map: publishes the tiles that need it and the summary (`tiles`), /map (`ros`, --ros).
+  void publish_served(bool tiles, bool ros);
+  /// --map: stats.json of the map server.
+  nlohmann::json served_stats(double served_s, const char* ended) const;
   void read_log();
   void open_dds();
   /// The ROS 2 scan source (--ros-scan) and outputs (--ros).
@@ -63,6 +80,7 @@ class LeaderApp {
   std::string params_json_;  ///< the parameters as JSON text (checkpoints, the map summary)
   Slam slam_;
   std::optional<Resumed> resumed_;
+  std::optional<ServedMap> served_;  ///< --map
   std::unique_ptr<dds::Node> node_;
   std::unique_ptr<MapPublisher> publisher_;
   std::unique_ptr<app::ScanSource> source_;

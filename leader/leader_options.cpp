@@ -12,10 +12,28 @@ void LeaderOptions::validate() const {
   if (!(rate >= 0.0)) throw std::invalid_argument("--rate must be >= 0");
   if (!(publish_period > 0.0)) throw std::invalid_argument("--publish-period must be > 0");
   if (!(full_period > 0.0)) throw std::invalid_argument("--full-period must be > 0");
-  const int inputs = !log.empty() + !scan_robot.empty() + !ros.scan_topic.empty();
+  if (serving_map()) {
+    std::string given;
+    for (const auto& [flag, set] : {std::pair{"--log", !log.empty()},
+                                    {"--scan-topic", !scan_robot.empty()},
+                                    {"--ros-scan", !ros.scan_topic.empty()},
+                                    {"--resume", !resume_dir.empty()},
+                                    {"--offline", offline}}) {
+      if (set) given += std::string(given.empty() ? "" : ", ") + flag;
+    }
+    if (!given.empty()) {
+      throw std::invalid_argument(
+          "--map serves a saved map without mapping: it excludes --log, --scan-topic, "
+          "--ros-scan, --resume and --offline (given: " +
+          given + ")");
+    }
+  }
+  const int inputs =
+      !log.empty() + !scan_robot.empty() + !ros.scan_topic.empty() + (serving_map() ? 1 : 0);
   if (inputs != 1) {
     throw std::invalid_argument(
-        "give exactly one of --log FILE, --scan-topic ROBOT_ID and --ros-scan TOPIC");
+        "give exactly one of --log FILE, --scan-topic ROBOT_ID, --ros-scan TOPIC and --map "
+        "PATH");
   }
   if (log.empty() && offline) {
     throw std::invalid_argument(
@@ -26,7 +44,7 @@ void LeaderOptions::validate() const {
     throw std::invalid_argument("--rate paces a --log; scans from a topic come as sent");
   }
   if (!(idle_exit >= 0.0)) throw std::invalid_argument("--idle-exit must be >= 0");
-  if (idle_exit > 0.0 && !log.empty()) {
+  if (idle_exit > 0.0 && (!log.empty() || serving_map())) {
     throw std::invalid_argument("--idle-exit needs --scan-topic or --ros-scan");
   }
   if (ros.any() && !secure.empty()) {
@@ -38,6 +56,7 @@ void LeaderOptions::validate() const {
 }
 
 std::string LeaderOptions::input_name() const {
+  if (serving_map()) return "map " + map;
   if (!log.empty()) return "log " + log;
   return scan_robot.empty() ? "ros-scan " + ros.scan_topic : "scan-topic " + scan_robot;
 }
@@ -47,6 +66,18 @@ void add_leader_flags(CLI::App& cli, LeaderOptions& o, app::ParamTable& params) 
   cli.add_option("--scan-topic", o.scan_robot,
                  "map the scans robot ID publishes on esfleet/robots/scan (e.g. from "
                  "esfleet-replay) instead of a log");
+  cli.add_option(
+         "--map", o.map,
+         "serve a saved map instead of mapping (no SLAM) until stopped or --linger S: PATH is a "
+         "leader's checkpoint, given as the leader's --out directory OUT (holding OUT/checkpoint) "
+         "or as OUT/checkpoint itself, served with its counters, its map id and a new --epoch; or "
+         "a ROS map_server YAML file (PGM/PNG image) whose cell value v in 0..100 becomes "
+         "hit = round(v/20), err = 5 - hit (-1 stays unknown) in cells of its resolution "
+         "(docs/faults.md, 'Serving a saved map'). Tiles, summary (complete) and, with --ros, "
+         "/map go out at once, then every --publish-period and --ros-map-period wall seconds. "
+         "Excludes --log, --scan-topic, --ros-scan, --resume and --offline; --out gets stats.json, "
+         "map.digest, map.pgm and map.yaml of the served map")
+      ->type_name("PATH");
   cli.add_option("--idle-exit", o.idle_exit,
                  "--scan-topic: end the map once no scan came for S seconds after the first "
                  "(0 = only on Ctrl-C)")

@@ -1,6 +1,7 @@
 #pragma once
-// esfleet-leader's options: what to map (a log or a robot's scan topic), where the results go,
-// how the map is shared over DDS, checkpoints, and the SLAM parameters.
+// esfleet-leader's options: what to map (a log or a robot's scan topic) or which saved map to
+// serve (--map), where the results go, how the map is shared over DDS, checkpoints, and the SLAM
+// parameters.
 
 #include <cstdint>
 #include <optional>
@@ -19,8 +20,10 @@
 namespace esfleet::leader {
 
 struct LeaderOptions {
-  // --- input: exactly one of log, scan_robot and ros.scan_topic ---
-  std::string log;            ///< CARMEN log (.log/.clf, plain or .gz)
+  // --- input: exactly one of log, scan_robot, ros.scan_topic and map ---
+  std::string log;  ///< CARMEN log (.log/.clf, plain or .gz)
+  /// Serve this saved map without SLAM (a checkpoint directory or a ROS map YAML file).
+  std::string map;
   std::string scan_robot;     ///< map the scans this robot publishes on the scan topic
   double idle_exit = 0.0;     ///< scan topic: end once no scan came for this long (s); 0 = never
   std::size_t max_scans = 0;  ///< stop after this many scans; 0 = all
@@ -59,6 +62,8 @@ struct LeaderOptions {
 
   /// Throws std::invalid_argument naming the flag.
   void validate() const;
+  /// --map: serving a saved map, no SLAM.
+  bool serving_map() const { return !map.empty(); }
   /// "log PATH", "scan-topic ROBOT_ID" or "ros-scan TOPIC": what the map was made from
   /// (checkpoints).
   std::string input_name() const;

@@ -16,6 +16,13 @@ MapPublisher::MapPublisher(dds::Node& node, mapshare::MapIdentity id, std::strin
 
 void MapPublisher::publish(GridMap& map, const TimedPose& pose, float fitness, bool complete,
                            std::uint32_t scans, const std::string& params_json) {
+  publish_map(map, pose.stamp, complete, scans, params_json);
+  pose_.write(dds::pose_to_msg(robot_id_, pose, fitness, msg::kStatusMapping));
+  count_bytes();
+}
+
+void MapPublisher::publish_map(GridMap& map, double stamp, bool complete, std::uint32_t scans,
+                               const std::string& params_json) {
   // A follower that joined since the last publish holds the whole copies (transient-local),
   // which may be up to full_period old, and cannot apply deltas against newer versions.
   const int readers = tiles_.matched_readers();
@@ -23,7 +30,7 @@ void MapPublisher::publish(GridMap& map, const TimedPose& pose, float fitness, b
   tile_readers_ = readers;
   const auto now = static_cast<std::uint64_t>(realtime_ns());
   mapshare::Publication out =
-      sender_.publish(map, pose.stamp, complete, joined, scans, params_json, now);
+      sender_.publish(map, stamp, complete, joined, scans, params_json, now);
   for (mapshare::TileMessage& t : out.tiles) {
     if (t.is_delta()) {
       if (deltas_.write(dds::delta_to_msg(std::move(t)))) ++stats_.deltas;
@@ -32,21 +39,24 @@ void MapPublisher::publish(GridMap& map, const TimedPose& pose, float fitness, b
     }
   }
   meta_.write(dds::meta_to_msg(out.meta));
-  pose_.write(dds::pose_to_msg(robot_id_, pose, fitness, msg::kStatusMapping));
   ++stats_.publishes;
   if (out.joiner_refresh) ++stats_.joiner_refreshes;
-  stats_.tile_bytes = tiles_.bytes_written();
-  stats_.delta_bytes = deltas_.bytes_written();
-  stats_.meta_bytes = meta_.bytes_written();
-  stats_.pose_bytes = pose_.bytes_written();
-  stats_.write_failures = tiles_.write_failures() + deltas_.write_failures() +
-                          meta_.write_failures() + pose_.write_failures();
+  count_bytes();
   const GridMap::Bounds b = map.known_bounds();
   if (!b.empty) {
     const auto cells = static_cast<std::uint64_t>(b.max.x - b.min.x + 1) *
                        static_cast<std::uint64_t>(b.max.y - b.min.y + 1);
     stats_.full_map_bytes += cells + 100;
   }
+}
+
+void MapPublisher::count_bytes() {
+  stats_.tile_bytes = tiles_.bytes_written();
+  stats_.delta_bytes = deltas_.bytes_written();
+  stats_.meta_bytes = meta_.bytes_written();
+  stats_.pose_bytes = pose_.bytes_written();
+  stats_.write_failures = tiles_.write_failures() + deltas_.write_failures() +
+                          meta_.write_failures() + pose_.write_failures();
 }
 
 bool MapPublisher::flush(std::chrono::milliseconds timeout) {

@@ -44,6 +44,10 @@ class MapPublisher {
   /// summary, then the pose. `pose.stamp` is the scan time for the delta policy's full_period.
   void publish(GridMap& map, const TimedPose& pose, float fitness, bool complete,
                std::uint32_t scans, const std::string& params_json);
+  /// The same without a pose (a map server has no robot): the changed tiles, then the summary.
+  /// `stamp` takes the place of the scan time.
+  void publish_map(GridMap& map, double stamp, bool complete, std::uint32_t scans,
+                   const std::string& params_json);
   /// The next publish() sends every tile whole (mapshare::TileSender::republish_all).
   void republish_all(GridMap& map) { sender_.republish_all(map); }
 
@@ -52,6 +56,9 @@ class MapPublisher {
   bool flush(std::chrono::milliseconds timeout);
 
  private:
+  /// Copies the writers' byte and failure counts into stats_.
+  void count_bytes();
+
   std::string robot_id_;
   mapshare::TileSender sender_;
   int tile_readers_ = 0;  ///< tile readers matched at the last publish

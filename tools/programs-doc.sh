@@ -81,9 +81,12 @@ With `--scan-topic` it maps that robot's scans in arrival order, as it would fro
 same seed gives the trajectory of an `--offline` run); it ends after `--idle-exit` seconds
 without a scan (the map then complete), after `--max-scans`, or on Ctrl-C (the map not marked
 complete). Every SLAM parameter is a flag and a key of `--config FILE` (YAML).
+With `--map PATH` it is a map server instead: it serves a saved map (a checkpoint or a ROS
+`map.yaml`) without running the SLAM until stopped or `--linger` ends, both exit 0
+(`docs/faults.md`, "Serving a saved map").
 Exit codes: 0 done; 1 the results could not be written, or no scan came; 2 bad usage or input
-(a flag, the log, the profile, a checkpoint that cannot be resumed); 130 stopped by
-SIGINT/SIGTERM, results written.
+(a flag, the log, the profile, a checkpoint that cannot be resumed, a map that cannot be
+served); 130 stopped by SIGINT/SIGTERM, results written.
 
 TEXT
 help_block esfleet-leader

@@ -1,0 +1,254 @@
+// esfleet-leader's command line and its map server mode (--map): the flags --map excludes, the
+// inputs it accepts (a checkpoint directory given either way, a ROS map YAML file) and the
+// set-up errors that name the file, all before any DDS participant exists.
+
+#include "leader_options.hpp"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <numbers>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "app/program.hpp"
+#include "checkpoint.hpp"
+#include "esfleet/core/ros_map_format.hpp"
+#include "esfleet/core/ros_map_writer.hpp"
+#include "esfleet/core/tile_codec.hpp"
+#include "leader_app.hpp"
+#include "served_map.hpp"
+#include "synthetic_world.hpp"
+
+namespace esfleet::leader {
+namespace {
+
+namespace fs = std::filesystem;
+
+/// Parses `args` like esfleet-leader's main() and finishes the options. Returns the
+/// std::invalid_argument / UsageError message ("" when the options are valid); `parse_code` is
+/// set when the command line itself was refused.
+std::string options_error(std::vector<std::string> args, LeaderOptions* out = nullptr,
+                          std::optional<int>* parse_code = nullptr) {
+  app::Program program("esfleet-leader", "leader", "test");
+  LeaderOptions o;
+  app::ParamTable params;
+  add_leader_flags(program.cli(), o, params);
+  args.insert(args.begin(), "esfleet-leader");
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  const std::optional<int> code = program.parse(static_cast<int>(argv.size()), argv.data());
+  if (parse_code != nullptr) *parse_code = code;
+  if (code) return "parse error";
+  try {
+    finish_leader_options(o, params);
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+  if (out != nullptr) *out = o;
+  return "";
+}
+
+bool contains(const std::string& s, const std::string& part) {
+  return s.find(part) != std::string::npos;
+}
+
+TEST(LeaderOptions, ExactlyOneInput) {
+  EXPECT_TRUE(contains(options_error({}), "give exactly one of --log FILE"));
+  EXPECT_TRUE(contains(options_error({}), "--map PATH"));
+  EXPECT_EQ(options_error({"--log", "x.clf"}), "");
+  EXPECT_EQ(options_error({"--scan-topic", "r1"}), "");
+  EXPECT_TRUE(contains(options_error({"--log", "x.clf", "--scan-topic", "r1"}), "exactly one"));
+  EXPECT_TRUE(contains(options_error({"--scan-topic", "r1", "--offline"}), "--offline maps"));
+}
+
+TEST(LeaderOptions, MapAloneIsValid) {
+  LeaderOptions o;
+  EXPECT_EQ(options_error({"--map", "out", "--ros", "--linger", "5"}, &o), "");
+  EXPECT_TRUE(o.serving_map());
+  EXPECT_EQ(o.map, "out");
+  EXPECT_EQ(o.input_name(), "map out");
+  EXPECT_EQ(o.linger, 5.0);
+  EXPECT_TRUE(o.ros.outputs);
+  EXPECT_EQ(options_error({"--map", "m.yaml", "--map-id", "b1", "--epoch", "9"}, &o), "");
+  EXPECT_EQ(*o.map_id, "b1");
+  EXPECT_EQ(*o.epoch, 9u);
+}
+
+TEST(LeaderOptions, MapExcludesTheMappingInputsNamingThoseGiven) {
+  const std::string base =
+      "--map serves a saved map without mapping: it excludes --log, --scan-topic, --ros-scan, "
+      "--resume and --offline (given: ";
+  EXPECT_EQ(options_error({"--map", "out", "--log", "x.clf"}), base + "--log)");
+  EXPECT_EQ(options_error({"--map", "out", "--scan-topic", "r1"}), base + "--scan-topic)");
+  EXPECT_EQ(options_error({"--map", "out", "--ros-scan", "/scan"}), base + "--ros-scan)");
+  EXPECT_EQ(options_error({"--map", "out", "--resume", "old"}), base + "--resume)");
+  EXPECT_EQ(options_error({"--map", "out", "--offline"}), base + "--offline)");
+  EXPECT_EQ(options_error({"--map", "out", "--log", "x.clf", "--resume", "old", "--offline"}),
+            base + "--log, --resume, --offline)");
+}
+
+TEST(LeaderOptions, MapRefusesFlagsForScans) {
+  EXPECT_TRUE(contains(options_error({"--map", "out", "--rate", "1"}), "--rate paces a --log"));
+  EXPECT_TRUE(contains(options_error({"--map", "out", "--idle-exit", "3"}), "--idle-exit needs"));
+  EXPECT_TRUE(contains(options_error({"--map", "out", "--publish-period", "0"}),
+                       "--publish-period must be > 0"));
+}
+
+TEST(LeaderOptions, MapNeedsAValue) {
+  std::optional<int> code;
+  EXPECT_EQ(options_error({"--map"}, nullptr, &code), "parse error");
+  EXPECT_EQ(code, app::kExitUsage);
+}
+
+// --- the maps --map serves -----------------------------------------------------------------
+
+/// A fresh directory under the test temp dir.
+fs::path fresh_dir(const std::string& name) {
+  const fs::path d = fs::path(::testing::TempDir()) /
+                     ("esfleet-map-server-" + name + "-" + std::to_string(::getpid()));
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+/// A small map made by the SLAM and checkpointed into OUT/checkpoint (as the leader does).
+std::unique_ptr<Slam> mapped_and_checkpointed(const fs::path& out, const SlamConfig& config = {}) {
+  auto owned = std::make_unique<Slam>(config);
+  Slam& slam = *owned;
+  for (int i = 0; i < 12; ++i) {
+    const double th = 0.3 + i * std::numbers::pi / 180.0;
+    const Pose2 p{2.0 + 0.1 * i * std::cos(0.3), 1.5 + 0.1 * i * std::sin(0.3), th};
+    slam.process(esfleet::testing::make_scan(esfleet::testing::asymmetric_room(), p, 0.2 * i));
+  }
+  CheckpointSchedule schedule(out.string(), 0, {"building-1", 42, 0, "log x.clf", "{}"});
+  schedule.save(slam, "test");
+  return owned;
+}
+
+TEST(ServedMap, ACheckpointGivenAsOutOrAsOutCheckpointComesBackExactly) {
+  const fs::path out = fresh_dir("checkpoint");
+  SlamConfig config;
+  config.map.cell_size = 0.1;  // not the default: the server takes the checkpoint's layout
+  config.map.tile_edge = 32;
+  const auto made = mapped_and_checkpointed(out, config);
+  const Slam& slam = *made;
+  // The checkpoint records the parameters as the leader does (name -> text).
+  {
+    std::ifstream in(out / "checkpoint" / "manifest.json");
+    std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const auto at = text.find("\"parameters\": {}");
+    ASSERT_NE(at, std::string::npos);
+    text.replace(at, 16, R"("parameters": {"cell_size": "0.1", "tile_edge": "32"})");
+    std::ofstream(out / "checkpoint" / "manifest.json") << text;
+  }
+  for (const fs::path& given : {out, out / "checkpoint", fs::path(out.string() + "/")}) {
+    const ServedMap m = load_served_map(given.string(), SlamConfig{});
+    EXPECT_EQ(m.kind, ServedMapKind::kCheckpoint) << given;
+    EXPECT_EQ(m.file, (out / "checkpoint" / "manifest.json").string());
+    ASSERT_TRUE(m.checkpoint);
+    EXPECT_EQ(m.checkpoint->map_id, "building-1");
+    EXPECT_EQ(m.checkpoint->epoch, 42u);
+    EXPECT_EQ(m.checkpoint->scans, 12u);
+    EXPECT_EQ(m.map.cell_size(), 0.1);
+    EXPECT_EQ(m.map.tile_edge(), 32);
+    EXPECT_EQ(map_digest(m.map), map_digest(slam.map()));  // the exact counters
+    for (const TileKey k : slam.map().tile_keys()) {       // and versions, as saved
+      EXPECT_EQ(m.map.find_tile(k)->version, slam.map().find_tile(k)->version);
+    }
+    EXPECT_EQ(m.dirs.size(), 2u);
+  }
+}
+
+TEST(ServedMap, ARosYamlBecomesCountersOfItsResolution) {
+  const fs::path dir = fresh_dir("yaml");
+  GridMap map(GridMapConfig{.cell_size = 0.1, .tile_edge = 8});
+  for (int i = 0; i < 3; ++i) map.add_hit({-5, -3});
+  map.add_err({2, 4});
+  map.commit_update();
+  save_ros_map(map, dir.string(), "map");
+  SlamConfig config;
+  config.map.tile_edge = 16;  // the server's own tile edge
+  const ServedMap m = load_served_map((dir / "map.yaml").string(), config);
+  EXPECT_EQ(m.kind, ServedMapKind::kRosYaml);
+  EXPECT_FALSE(m.checkpoint);
+  ASSERT_TRUE(m.placement);
+  EXPECT_TRUE(m.placement->aligned());
+  EXPECT_EQ(m.map.cell_size(), 0.1);
+  EXPECT_EQ(m.map.tile_edge(), 16);
+  EXPECT_EQ(m.map.hit({-5, -3}), 5u);
+  EXPECT_EQ(m.map.err({2, 4}), 5u);
+  const CellClasses c = cell_classes(m.map);
+  EXPECT_EQ(c.occupied, 1u);
+  EXPECT_EQ(c.free, 1u);
+  EXPECT_EQ(c.unknown, 8u * 8u - 2u);  // the 8 x 8 box of the known cells
+  EXPECT_EQ(m.dirs, std::vector<std::string>{dir.string()});
+}
+
+std::string load_error(const std::string& path) {
+  try {
+    load_served_map(path, SlamConfig{});
+  } catch (const std::runtime_error& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+TEST(ServedMap, BadPathsAreRefusedNamingTheFile) {
+  const fs::path dir = fresh_dir("bad");
+  EXPECT_EQ(load_error((dir / "nope").string()),
+            (dir / "nope").string() + ": no such file or directory");
+  // A directory without a checkpoint: a map.yaml there is suggested.
+  std::ofstream(dir / "map.yaml") << "image: map.pgm\n";
+  const std::string none = load_error(dir.string());
+  EXPECT_TRUE(contains(none, "no checkpoint in this directory")) << none;
+  EXPECT_TRUE(contains(none, "give " + (dir / "map.yaml").string())) << none;
+  // A YAML file with a bad field: the reader's message, naming file and field.
+  std::ofstream(dir / "bad.yaml") << "image: map.pgm\nresolution: -1\norigin: [0, 0, 0]\n"
+                                     "negate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.2\n";
+  const std::string bad = load_error((dir / "bad.yaml").string());
+  EXPECT_TRUE(contains(bad, "bad.yaml")) << bad;
+  EXPECT_TRUE(contains(bad, "resolution")) << bad;
+  // A damaged checkpoint: names the checkpoint file.
+  const fs::path out = dir / "out";
+  mapped_and_checkpointed(out);
+  std::ofstream(out / "checkpoint" / "journal.json") << "{";
+  const std::string damaged = load_error(out.string());
+  EXPECT_TRUE(contains(damaged, "journal.json")) << damaged;
+}
+
+TEST(LeaderApp, MapSetUpErrorsAreUsageErrorsBeforeDds) {
+  const fs::path dir = fresh_dir("app");
+  const std::atomic<bool> stop{false};
+  LeaderOptions o;
+  o.map = (dir / "missing.yaml").string();
+  o.out_dir = (dir / "served").string();
+  try {
+    LeaderApp app(o, stop);
+    ADD_FAILURE() << "no error";
+  } catch (const app::UsageError& e) {
+    EXPECT_EQ(std::string(e.what()), "--map " + o.map + ": no such file or directory");
+  }
+  // --out must not be where the served map lives (it would overwrite the leader's outputs).
+  mapped_and_checkpointed(dir / "live");
+  for (const fs::path& out : {dir / "live", dir / "live" / "checkpoint"}) {
+    o.map = (dir / "live").string();
+    o.out_dir = out.string();
+    try {
+      LeaderApp app(o, stop);
+      ADD_FAILURE() << "no error";
+    } catch (const app::UsageError& e) {
+      EXPECT_TRUE(contains(e.what(), ": the map served (--map ")) << e.what();
+    }
+  }
+}
+
+}  // namespace
+}  // namespace esfleet::leader
