@@ -391,9 +391,10 @@ nlohmann::json LeaderApp::ros_stats(const SlamRunStats& stats) const {
 }
 
 void LeaderApp::serve(const SlamRunStats& stats) {
-  const std::string why = topic_ == nullptr ? std::string("log ended")
-                          : topic_->ended() ? fmt::format("no scan for {} s", o_.idle_exit)
-                                            : fmt::format("{} scans mapped", stats.scans);
+  const bool from_topic = topic_ != nullptr || ros_scan_ != nullptr;
+  const std::string why = !from_topic        ? std::string("log ended")
+                          : source_->ended() ? fmt::format("no scan for {} s", o_.idle_exit)
+                                             : fmt::format("{} scans mapped", stats.scans);
   spdlog::info(
       "{}: map complete; serving it {}", why,
       o_.linger < 0 ? std::string("until stopped (Ctrl-C)") : fmt::format("for {} s", o_.linger));

@@ -68,7 +68,10 @@ ReplayApp::ReplayApp(ReplayOptions options, const std::atomic<bool>& stop)
   scans_.erase(scans_.begin(), scans_.begin() + static_cast<std::ptrdiff_t>(o_.first_scan));
   spdlog::info("{}: {} scans over {:.1f} s of log; robot '{}', rate {}{}, odometry {}", o_.log,
                scans_.size(), scans_.back().stamp - scans_.front().stamp, o_.robot_id, o_.rate,
-               o_.rate == 0.0 ? " (as fast as acknowledged)" : "", o_.odometry ? "on" : "off");
+               o_.rate > 0.0 ? ""
+               : o_.ros      ? " (500 scans/s at most: ROS scan readers are best-effort)"
+                             : " (as fast as acknowledged)",
+               o_.odometry ? "on" : "off");
 
   try {
     node_ = std::make_unique<dds::Node>(
@@ -163,6 +166,11 @@ void ReplayApp::wait_for_readers() {
   }
 }
 
+namespace {
+/// --ros at --rate 0: the gap between two scans (at most 500 scans per second).
+constexpr auto kRosGap = std::chrono::milliseconds(2);
+}  // namespace
+
 double ReplayApp::send_scans(std::chrono::steady_clock::time_point start) {
   const std::size_t every = std::max<std::size_t>(1, scans_.size() / 10);
   double ack_wait_s = 0.0;
@@ -175,6 +183,10 @@ double ReplayApp::send_scans(std::chrono::steady_clock::time_point start) {
         std::this_thread::sleep_until(std::min(due, Clock::now() + kPoll));
       }
       if (stop_.load()) break;
+    } else if (ros_ && i > 0) {
+      // ROS scan readers are best-effort: nothing throttles the writer, so --rate 0 means at
+      // most 500 scans per second (a burst would overflow the transport's buffers).
+      std::this_thread::sleep_for(kRosGap);
     }
     if (!o_.odometry) scans_[i].odometry.reset();
     const bool written = ros_ ? ros_->publish(scans_[i])

@@ -87,7 +87,7 @@ void add_replay_flags(CLI::App& cli, ReplayOptions& o) {
   cli.add_option("--robot-id", o.robot_id, "robot id the scans are published under")->required();
   cli.add_option("--rate", o.rate,
                  "speed: 1 = as recorded, 2 = twice as fast, 0 = as fast as the readers "
-                 "acknowledge")
+                 "acknowledge (--ros: 500 scans/s, its readers are best-effort)")
       ->capture_default_str();
   app::add_dds_flags(cli, o.domain, o.profile, o.secure);
   cli.add_option("--first-scan", o.first_scan,
