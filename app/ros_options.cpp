@@ -29,6 +29,11 @@ std::string RosOptions::resolved_ns(const std::string& robot_id) const {
 }
 
 void RosOptions::validate(const std::string& robot_id) const {
+  if (!(map_period > 0.0)) throw std::invalid_argument("--ros-map-period must be > 0");
+  if (!odom.empty() && scan_topic.empty()) {
+    throw std::invalid_argument("--ros-odom needs --ros-scan (odometry goes with ROS scans)");
+  }
+  if (!any()) return;  // the names matter only when the ROS side is on
   auto check = [](const char* flag, auto&& body) {
     try {
       body();
@@ -36,18 +41,15 @@ void RosOptions::validate(const std::string& robot_id) const {
       throw std::invalid_argument(std::string(flag) + ": " + e.what());
     }
   };
-  check("--ros-namespace", [&] { (void)dds::ros_name(resolved_ns(robot_id), "pose"); });
+  check(ns ? "--ros-namespace" : "--ros-namespace (default /ROBOT_ID)",
+        [&] { (void)dds::ros_name(resolved_ns(robot_id), "pose"); });
   if (!scan_topic.empty()) check("--ros-scan", [&] { (void)dds::ros_name("/", scan_topic); });
   if (!odom.empty() && odom != "tf") check("--ros-odom", [&] { (void)dds::ros_name("/", odom); });
-  if (!odom.empty() && scan_topic.empty()) {
-    throw std::invalid_argument("--ros-odom needs --ros-scan (odometry goes with ROS scans)");
-  }
   for (const auto& [flag, frame] :
        {std::pair{"--map-frame", &map_frame}, std::pair{"--odom-frame", &odom_frame},
         std::pair{"--base-frame", &base_frame}}) {
     check(flag, [&] { (void)dds::ros_name("/", *frame); });
   }
-  if (!(map_period > 0.0)) throw std::invalid_argument("--ros-map-period must be > 0");
 }
 
 RosNames resolve_ros_names(const RosOptions& o, const std::string& robot_id) {
@@ -95,9 +97,9 @@ void add_ros_flags(CLI::App& cli, RosOptions& o, bool leader) {
                 "scan's)")
       ->type_name("FRAME");
   g->add_option_function<std::string>(
-      "--laser-pose", [&o](const std::string& v) { o.laser_pose = parse_pose(v); },
-      "the laser's pose on the base as X,Y,YAW_DEG (default: from /tf_static with odometry, "
-      "else 0,0,0)")
+       "--laser-pose", [&o](const std::string& v) { o.laser_pose = parse_pose(v); },
+       "the laser's pose on the base as X,Y,YAW_DEG (default: from /tf_static with odometry, "
+       "else 0,0,0)")
       ->type_name("X,Y,YAW_DEG");
   if (leader) {
     g->add_option("--ros-map-period", o.map_period,

@@ -2,7 +2,7 @@
 # Runs one libFuzzer target of the fuzz build (docs/fuzzing.md) for a while and reports.
 #
 # usage: fuzz/run.sh TARGET SECONDS [JOBS]
-#   TARGET  fuzz_carmen | fuzz_map_loader | fuzz_tile
+#   TARGET  fuzz_carmen | fuzz_map_loader | fuzz_tile | fuzz_ros_msg
 #   JOBS    parallel fuzzing processes (default 1)
 # Environment: ESFLEET_FUZZ_BUILD (default <repo>/build-fuzz) holds the built targets.
 #
