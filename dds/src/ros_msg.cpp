@@ -132,6 +132,9 @@ builtin_interfaces::msg::Time ros_time(double seconds) {
 }
 
 double seconds_of(const builtin_interfaces::msg::Time& t) {
+  if (t.sec() < 0) {
+    throw RosMessageError("bad_stamp", "stamp sec " + std::to_string(t.sec()) + " is negative");
+  }
   return static_cast<double>(t.sec()) + static_cast<double>(checked_nanosec(t.nanosec())) * 1e-9;
 }
 

@@ -172,6 +172,11 @@ TEST(RosTime, SecondsToTimeAndBack) {
   EXPECT_NEAR(seconds_of(t), 8.0 - 1e-9, 1e-15);
   t.nanosec(1'000'000'000);
   EXPECT_EQ(refusal([&] { seconds_of(t); }), "bad_stamp");
+  // Found by fuzz_ros_msg (fuzz/corpus/fuzz_ros_msg/regress-negative-stamp): ROS 2 times are
+  // never negative.
+  t.sec(-1);
+  t.nanosec(0);
+  EXPECT_EQ(refusal([&] { seconds_of(t); }), "bad_stamp");
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -354,6 +359,7 @@ TEST(RosScan, EachRefusalHasItsKind) {
   EXPECT_EQ(kind_of([](auto& m) { m.range_min(kNaN); }), "scan_bad_range_limits");
   EXPECT_EQ(kind_of([](auto& m) { m.header().stamp().nanosec(1'000'000'000); }), "bad_stamp");
   EXPECT_EQ(kind_of([](auto& m) { m.header().stamp().nanosec(4'000'000'000u); }), "bad_stamp");
+  EXPECT_EQ(kind_of([](auto& m) { m.header().stamp().sec(-2'000'000'000); }), "bad_stamp");
 }
 
 TEST(RosScan, RefusalsSayWhatWasWrong) {

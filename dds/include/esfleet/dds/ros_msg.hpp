@@ -35,7 +35,8 @@ inline constexpr std::size_t kMaxRosScanBeams = 10000;
 
 /// ROS time of `seconds` (>= 0, finite, below 2^31 - 1 s, i.e. before 2038; otherwise time 0).
 builtin_interfaces::msg::Time ros_time(double seconds);
-/// Seconds of a ROS time; nanosec must be < 1e9 (else RosMessageError "bad_stamp").
+/// Seconds of a ROS time. RosMessageError "bad_stamp" for a negative sec (ROS 2 times are not
+/// negative; rclcpp refuses them) or a nanosec >= 1e9.
 double seconds_of(const builtin_interfaces::msg::Time& t);
 
 /// A LaserScan as esfleet's scan (stamp = header stamp, no odometry). Checks, each refusal
@@ -46,7 +47,7 @@ double seconds_of(const builtin_interfaces::msg::Time& t);
 ///  - scan_ranges_mismatch: the angles say n = (angle_max - angle_min) / increment + 1 beams
 ///    and ranges holds a count more than one beam away from it (drivers round angle_max);
 ///  - scan_bad_range_limits: range_min, range_max not finite or not 0 <= range_min < range_max;
-///  - bad_stamp: a nanosec field >= 1e9.
+///  - bad_stamp: a negative sec or a nanosec >= 1e9.
 /// Readings that are NaN, infinite, below range_min or at or above range_max are no-return
 /// readings (set to range_max, which becomes LaserScan::max_range). Negative increments
 /// (upside-down lasers) are kept as they are.
