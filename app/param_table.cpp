@@ -54,6 +54,13 @@ std::string show_double(double v) {
   return os.str();
 }
 
+/// The shortest text that reads back as the float `v` ("81.9", not "81.90000153").
+std::string show_float(float v) {
+  char buf[32];
+  const auto [end, ec] = std::to_chars(buf, buf + sizeof buf, v);
+  return ec == std::errc() ? std::string(buf, end) : show_double(v);
+}
+
 }  // namespace
 
 void ParamTable::add(std::string name, std::string type, std::string help,
@@ -84,7 +91,7 @@ void ParamTable::add_float(const std::string& name, float* field, const std::str
   add(
       name, "FLOAT", help,
       [field](const std::string& s) { *field = static_cast<float>(parse_double(s)); },
-      [field] { return show_double(*field); });
+      [field] { return show_float(*field); });
 }
 
 void ParamTable::add_int(const std::string& name, int* field, const std::string& help) {

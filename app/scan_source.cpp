@@ -21,6 +21,14 @@ std::vector<LaserScan> read_log(const std::string& path, const CarmenReaderOptio
                                 const std::atomic<bool>& stop) {
   CarmenReader reader(path, options);
   std::vector<LaserScan> scans = read_scans(reader, max_scans, &stop);
+  if (const std::size_t bad = reader.bad_param_count(); bad > 0) {
+    std::string lines;
+    for (const std::size_t l : reader.bad_param_lines()) {
+      lines += (lines.empty() ? "" : ", ") + std::to_string(l);
+    }
+    spdlog::warn("{}: skipped {} PARAM line(s) without a value (line {}{})", path, bad, lines,
+                 bad > reader.bad_param_lines().size() ? ", ..." : "");
+  }
   if (reader.saw_corrected_poses() && use_odometry) {
     spdlog::warn(
         "{} is a GMapping-corrected log: its odometry fields are corrected poses, so "

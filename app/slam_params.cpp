@@ -89,6 +89,10 @@ void add_slam_params(ParamTable& t, SlamConfig* s, CarmenReaderOptions* r) {
       {{"start", EvenBeamConvention::kStartAtMinus90}, {"centered", EvenBeamConvention::kCentered}},
       "beam angles of FLASER scans with an even beam count: first beam at -90 deg, or centred "
       "(no beam at 0 deg)");
+  t.add_float("no_return_range", &r->no_return_range,
+              "readings at or above this are no-returns, metres (the value a log writes for "
+              "'no echo': 81.9 in the bundled logs, 81.83 or 50 in others; ROBOTLASER1 lines "
+              "also use their own maximum_range)");
 }
 
 }  // namespace esfleet::app

@@ -1,5 +1,6 @@
 #include "follower_options.hpp"
 
+#include <cmath>
 #include <stdexcept>
 
 #include "app/dds_flags.hpp"
@@ -10,6 +11,9 @@ namespace esfleet::follower {
 
 void FollowerOptions::validate() const {
   localiser.validate();
+  if (!std::isfinite(reader.no_return_range) || !(reader.no_return_range > 0.0f)) {
+    throw std::invalid_argument("--no-return-range must be finite and > 0");
+  }
   if (timeout < 0.0 || rate < 0.0 || idle_exit < 0.0 || leader_timeout < 0.0) {
     throw std::invalid_argument("--timeout, --rate, --idle-exit and --leader-timeout must be >= 0");
   }

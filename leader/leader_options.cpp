@@ -1,5 +1,6 @@
 #include "leader_options.hpp"
 
+#include <cmath>
 #include <stdexcept>
 
 #include "app/dds_flags.hpp"
@@ -9,6 +10,9 @@ namespace esfleet::leader {
 
 void LeaderOptions::validate() const {
   slam.validate();
+  if (!std::isfinite(reader.no_return_range) || !(reader.no_return_range > 0.0f)) {
+    throw std::invalid_argument("--no-return-range must be finite and > 0");
+  }
   if (!(rate >= 0.0)) throw std::invalid_argument("--rate must be >= 0");
   if (!(publish_period > 0.0)) throw std::invalid_argument("--publish-period must be > 0");
   if (!(full_period > 0.0)) throw std::invalid_argument("--full-period must be > 0");

@@ -103,6 +103,8 @@ struct CarmenReader::Impl {
   std::map<std::string, std::string> params;
   std::size_t line_number = 0;
   std::size_t skipped_lines = 0;
+  std::size_t bad_params = 0;
+  std::vector<std::size_t> bad_param_lines;  ///< the first kMaxBadParamLines
   std::size_t odom_messages = 0;
   bool saw_corrected_poses = false;
 
@@ -339,17 +341,33 @@ struct CarmenReader::Impl {
     ++odom_messages;
   }
 
+  /// Whether `field` is a number (any finite or infinite double).
+  static bool is_number(std::string_view field) {
+    double v = 0.0;
+    return parse_number(field, v);
+  }
+
+  // PARAM is metadata: every form real logs have is read, and a line that holds no value is
+  // skipped and counted (bad_params), never fatal. Forms, after the name:
+  //   value... ipc_timestamp host logger_timestamp   (CARMEN's logger)
+  //   value... host logger_timestamp                 (no ipc timestamp)
+  //   value...                                       (no time fields)
+  // The value is everything before the time fields, single-space joined.
   void parse_param() {
-    constexpr std::string_view kType = "PARAM";
-    if (tokens.size() < 3 + kTimeFields) {
-      fail("PARAM line has " + std::to_string(tokens.size() - 1) +
-           " fields after the message name, expected at least 5 (name value ipc_timestamp host "
-           "logger_timestamp)");
+    std::size_t end = tokens.size();
+    if (end >= 6 && is_number(tokens[end - 1]) && is_number(tokens[end - 3]) &&
+        !is_number(tokens[end - 2])) {
+      end -= 3;
+    } else if (end >= 5 && is_number(tokens[end - 1]) && !is_number(tokens[end - 2])) {
+      end -= 2;
     }
-    timestamps(kType);
-    // The value is everything between the name and the time fields, single-space joined.
+    if (end < 3) {
+      ++bad_params;
+      if (bad_param_lines.size() < kMaxBadParamLines) bad_param_lines.push_back(line_number);
+      return;
+    }
     std::string value(tokens[2]);
-    for (std::size_t k = 3; k + kTimeFields < tokens.size(); ++k) {
+    for (std::size_t k = 3; k < end; ++k) {
       value += ' ';
       value += tokens[k];
     }
@@ -432,6 +450,12 @@ CarmenReader& CarmenReader::operator=(CarmenReader&&) noexcept = default;
 std::optional<LaserScan> CarmenReader::next_scan() { return impl_->next_scan(); }
 const std::string& CarmenReader::name() const { return impl_->path; }
 const std::map<std::string, std::string>& CarmenReader::params() const { return impl_->params; }
+
+std::size_t CarmenReader::bad_param_count() const { return impl_->bad_params; }
+
+const std::vector<std::size_t>& CarmenReader::bad_param_lines() const {
+  return impl_->bad_param_lines;
+}
 std::size_t CarmenReader::line_number() const { return impl_->line_number; }
 std::size_t CarmenReader::skipped_lines() const { return impl_->skipped_lines; }
 std::size_t CarmenReader::odom_messages() const { return impl_->odom_messages; }

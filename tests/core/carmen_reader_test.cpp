@@ -295,6 +295,41 @@ TEST(CarmenReader, SkipsAndCountsUnknownTypesCommentsAndBlankLines) {
   EXPECT_EQ(reader.skipped_lines(), 3u);
 }
 
+TEST(CarmenReader, ParamLinesOfEveryFormAreReadAndOnesWithoutAValueSkipped) {
+  const std::string path = write_file("param-forms.log",
+                                      "PARAM full 1.5 100.0 host 100.0\n"
+                                      "PARAM no_ipc 81.83 nr 1178020153.12\n"
+                                      "PARAM bare some value\n"
+                                      "PARAM name_only\n"
+                                      "PARAM\n"
+                                      "PARAM laser_max 50 host 12.5\n" +
+                                          join(csail_flaser_tokens()) + "\n");
+  CarmenReader reader(path);
+  ASSERT_TRUE(reader.next_scan().has_value());
+  EXPECT_EQ(reader.params().at("full"), "1.5");
+  EXPECT_EQ(reader.params().at("no_ipc"), "81.83");
+  EXPECT_EQ(reader.params().at("bare"), "some value");
+  EXPECT_EQ(reader.params().at("laser_max"), "50");
+  EXPECT_EQ(reader.params().count("name_only"), 0u);
+  EXPECT_EQ(reader.bad_param_count(), 2u);
+  EXPECT_EQ(reader.bad_param_lines(), (std::vector<std::size_t>{4, 5}));
+}
+
+TEST(CarmenReader, NoReturnRangeIsAnOptionAndAReadingAtItIsANoReturn) {
+  auto tokens = csail_flaser_tokens();
+  tokens[2] = "50";     // beam 0 at exactly the log's no-return value
+  tokens[3] = "49.99";  // beam 1 just below
+  const std::string path = write_file("no-return.log", join(tokens) + "\n");
+  CarmenReaderOptions options;
+  options.no_return_range = 50.0f;
+  CarmenReader reader(path, options);
+  const std::optional<LaserScan> scan = reader.next_scan();
+  ASSERT_TRUE(scan.has_value());
+  EXPECT_FLOAT_EQ(scan->max_range, 50.0f);
+  EXPECT_TRUE(scan->is_no_return(0));
+  EXPECT_FALSE(scan->is_no_return(1));
+}
+
 TEST(CarmenReader, ParamValueMayHoldSpacesAndLaterLinesWin) {
   const std::string path = write_file("params.log",
                                       "PARAM a first 1.0 host 1.0\n"
@@ -383,7 +418,6 @@ TEST(CarmenReaderErrors, NonFinitePoseOrTimestamp) {
 
 TEST(CarmenReaderErrors, MalformedOdomParamAndRobotLaser1) {
   expect_bad_line("ODOM 1 2 3 0 0 0 5.0 host", "ODOM line has 8 fields after the message name");
-  expect_bad_line("PARAM name_only 1.0 host 1.0", "expected at least 5");
   expect_bad_line("ROBOTLASER1 0 -1.57 3.14 0.785 50 0.01 0 5 1 2 3",
                   "ROBOTLASER1 declares 5 readings but the line ends after 3");
   expect_bad_line("ROBOTLASER1 0 -1.57 3.14 0 50 0.01 0 1 1.0 0 0 0 0 0 0 0 0 0 0 0 0 1 h 1",

@@ -10,7 +10,9 @@
 //       robot_pose_x robot_pose_y robot_pose_theta laser_tv laser_rv forward_safety_dist
 //       side_safety_dist turn_axis ipc_timestamp host logger_timestamp
 //   ODOM x y theta tv rv accel ipc_timestamp host logger_timestamp
-//   PARAM name value ipc_timestamp host logger_timestamp   (a value may hold spaces)
+//   PARAM name value ipc_timestamp host logger_timestamp   (a value may hold spaces; also
+//       without the ipc timestamp or without time fields: PARAM is metadata, and a PARAM line
+//       without a value is skipped and counted, never an error)
 //   NEFF value ...                                          (GMapping-corrected logs only)
 // Blank lines and lines whose first non-blank character is '#' are comments. A line whose first
 // token is any other message name (letters, digits, '_' and '-', starting with a letter, e.g.
@@ -55,6 +57,9 @@ struct CarmenReaderOptions {
   /// (for ROBOTLASER1: the smaller of this and the line's maximum_range). Must be finite and > 0.
   float no_return_range = 81.9f;
 };
+
+/// How many line numbers of skipped PARAM lines a CarmenReader keeps.
+inline constexpr std::size_t kMaxBadParamLines = 10;
 
 /// Error in a log. what() is "<file>:<line>: <what>", or "<file>: <what>" when no line applies
 /// (line() == 0), e.g. "<file>: cannot open: <reason>".
@@ -106,6 +111,10 @@ class CarmenReader {
   const std::string& name() const;
   /// PARAM lines seen so far: name -> value (a later line for the same name wins).
   const std::map<std::string, std::string>& params() const;
+  /// PARAM lines skipped because they hold no value, so far, and the line numbers of the first
+  /// kMaxBadParamLines of them (for a warning).
+  std::size_t bad_param_count() const;
+  const std::vector<std::size_t>& bad_param_lines() const;
   /// Last line read (1-based); 0 before the first.
   std::size_t line_number() const;
   /// Lines of unknown message types skipped so far (comments and blank lines not counted).
