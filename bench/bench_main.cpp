@@ -6,8 +6,10 @@
 //   occupancy the cells of a saved map.yaml (as map_server reads it) and where the leader's own
 //             scans end in it: on occupied, free or unknown cells.
 //   occupancy-truth  a simulated run's map against the world's true walls: precision, recall.
+//   noisy-odometry  a log rewritten with noisy wheel odometry (seeded), for the SLAM to use.
 #include "app/program.hpp"
 #include "localise_bench.hpp"
+#include "noisy_odometry.hpp"
 #include "occupancy_bench.hpp"
 #include "slam_bench.hpp"
 
@@ -45,12 +47,19 @@ int main(int argc, char** argv) {
       "cells within a cell of a true wall) and recall (true wall cells the beams hit with an "
       "occupied cell within a cell), the map aligned by the leader's and the true trajectory");
   bench::add_occupancy_truth_options(*truth_cmd, truth);
+  bench::NoisyOdometryOptions noisy;
+  CLI::App* noisy_cmd = cli.add_subcommand(
+      "noisy-odometry",
+      "rewrite a CARMEN log's odometry as noisy wheel odometry (seeded; drift grows with the "
+      "distance driven and the angle turned), writing OUT_DIR/ROBOT_ID.log and .truth");
+  bench::add_noisy_odometry_options(*noisy_cmd, noisy);
   if (auto code = program.parse(argc, argv)) return *code;
   return program.run([&] {
     if (slam_cmd->parsed()) return bench::run_slam_bench(slam);
     if (localise_cmd->parsed()) return bench::run_localise_bench(localise);
     if (occupancy_cmd->parsed()) return bench::run_occupancy_bench(occupancy);
     if (truth_cmd->parsed()) return bench::run_occupancy_truth(truth);
+    if (noisy_cmd->parsed()) return bench::run_noisy_odometry(noisy);
     return static_cast<int>(app::kExitUsage);  // require_subcommand(1): not reached
   });
 }
