@@ -109,10 +109,18 @@ void fuzz_tf(const std::uint8_t* data, std::size_t size) {
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   if (size < 1) return 0;
   switch (data[0] % 4) {
-    case 0: fuzz_scan(data + 1, size - 1); break;
-    case 1: fuzz_odom(data + 1, size - 1); break;
-    case 2: fuzz_hint(data + 1, size - 1); break;
-    default: fuzz_tf(data + 1, size - 1); break;
+    case 0:
+      fuzz_scan(data + 1, size - 1);
+      break;
+    case 1:
+      fuzz_odom(data + 1, size - 1);
+      break;
+    case 2:
+      fuzz_hint(data + 1, size - 1);
+      break;
+    default:
+      fuzz_tf(data + 1, size - 1);
+      break;
   }
   return 0;
 }

@@ -9,10 +9,10 @@
 #include "peer_common.h"
 #include "subcommands.h"
 
-static const char *const kCmd = "hostile";
+static const char* const kCmd = "hostile";
 static const double kPi = 3.14159265358979323846;
 
-void hostile_usage(FILE *f) {
+void hostile_usage(FILE* f) {
   fprintf(
       f,
       "usage: esfleet-ros2-peer hostile --domain D --scan-topic T --frame LASER\n"
@@ -51,7 +51,8 @@ void hostile_usage(FILE *f) {
       "  --odom-frame F, --base-frame B   Odometry frames (default odom, base_link)\n"
       "  --map-frame M           frame of initialpose_nan (default map)\n"
       "  --best-effort           scan/odom writers best-effort (default reliable)\n"
-      "  --settle S              wait after matching (default 0.5); --linger S after (default 1)\n");
+      "  --settle S              wait after matching (default 0.5); --linger S after (default "
+      "1)\n");
 }
 
 typedef struct {
@@ -62,16 +63,16 @@ typedef struct {
   bool failed;
 } ctx_t;
 
-static double next_stamp(ctx_t *c) { return 1000.0 + 0.1 * (double)c->sent_total; }
+static double next_stamp(ctx_t* c) { return 1000.0 + 0.1 * (double)c->sent_total; }
 
-static void pace(ctx_t *c) { sleep_seconds(c->period); }
+static void pace(ctx_t* c) { sleep_seconds(c->period); }
 
 /* A valid 180-beam scan (ranges in buf, 180 floats). */
-static sensor_msgs_msg_dds__LaserScan_ valid_scan(const char *frame, double stamp, float *buf) {
+static sensor_msgs_msg_dds__LaserScan_ valid_scan(const char* frame, double stamp, float* buf) {
   sensor_msgs_msg_dds__LaserScan_ s;
   memset(&s, 0, sizeof s);
   s.header.stamp = stamp_from_seconds(stamp);
-  s.header.frame_id = (char *)frame;
+  s.header.frame_id = (char*)frame;
   const double inc = kPi / 180.0;
   s.angle_min = (float)(-kPi / 2.0);
   s.angle_increment = (float)inc;
@@ -86,7 +87,7 @@ static sensor_msgs_msg_dds__LaserScan_ valid_scan(const char *frame, double stam
   return s;
 }
 
-static bool send_scan(ctx_t *c, const sensor_msgs_msg_dds__LaserScan_ *s) {
+static bool send_scan(ctx_t* c, const sensor_msgs_msg_dds__LaserScan_* s) {
   if (c->failed || peer_stop) return false;
   if (!write_sample(c->scan_w, s, c->scan_topic)) {
     c->failed = true;
@@ -99,9 +100,8 @@ static bool send_scan(ctx_t *c, const sensor_msgs_msg_dds__LaserScan_ *s) {
 
 /* `repeat` scans of n_beams readings of 2 m over a full turn, consistent angles; returns how
    many were sent. */
-static long send_long_scans(ctx_t *c, const char *frame, float *buf, long n_beams,
-                            long repeat) {
-  float *ranges = malloc(sizeof(float) * (size_t)n_beams);
+static long send_long_scans(ctx_t* c, const char* frame, float* buf, long n_beams, long repeat) {
+  float* ranges = malloc(sizeof(float) * (size_t)n_beams);
   if (ranges == NULL) {
     fprintf(stderr, "esfleet-ros2-peer hostile: out of memory\n");
     c->failed = true;
@@ -123,12 +123,12 @@ static long send_long_scans(ctx_t *c, const char *frame, float *buf, long n_beam
   return sent;
 }
 
-static bool send_pose(ctx_t *c, const char *frame, double x, double stamp) {
+static bool send_pose(ctx_t* c, const char* frame, double x, double stamp) {
   if (c->failed || peer_stop) return false;
   geometry_msgs_msg_dds__PoseWithCovarianceStamped_ p;
   memset(&p, 0, sizeof p);
   p.header.stamp = stamp_from_seconds(stamp);
-  p.header.frame_id = (char *)frame;
+  p.header.frame_id = (char*)frame;
   p.pose.pose.position.x = x;
   p.pose.pose.position.y = 0.0;
   p.pose.pose.orientation = quaternion_of_yaw(0.0);
@@ -143,29 +143,42 @@ static bool send_pose(ctx_t *c, const char *frame, double x, double stamp) {
   return true;
 }
 
-int hostile_main(int argc, char **argv) {
+int hostile_main(int argc, char** argv) {
   enum {
-    kDomain = 1000, kScanTopic, kOdomTopic, kPoseTopic, kFrame, kWaitReaders, kRepeat, kPeriod,
-    kWaitTimeout, kOdomFrame, kBaseFrame, kMapFrame, kBestEffort, kSettle, kLinger, kHelp
+    kDomain = 1000,
+    kScanTopic,
+    kOdomTopic,
+    kPoseTopic,
+    kFrame,
+    kWaitReaders,
+    kRepeat,
+    kPeriod,
+    kWaitTimeout,
+    kOdomFrame,
+    kBaseFrame,
+    kMapFrame,
+    kBestEffort,
+    kSettle,
+    kLinger,
+    kHelp
   };
-  static const struct option opts[] = {
-      {"domain", required_argument, NULL, kDomain},
-      {"scan-topic", required_argument, NULL, kScanTopic},
-      {"odom-topic", required_argument, NULL, kOdomTopic},
-      {"initialpose-topic", required_argument, NULL, kPoseTopic},
-      {"frame", required_argument, NULL, kFrame},
-      {"wait-readers", required_argument, NULL, kWaitReaders},
-      {"repeat", required_argument, NULL, kRepeat},
-      {"period", required_argument, NULL, kPeriod},
-      {"wait-timeout", required_argument, NULL, kWaitTimeout},
-      {"odom-frame", required_argument, NULL, kOdomFrame},
-      {"base-frame", required_argument, NULL, kBaseFrame},
-      {"map-frame", required_argument, NULL, kMapFrame},
-      {"best-effort", no_argument, NULL, kBestEffort},
-      {"settle", required_argument, NULL, kSettle},
-      {"linger", required_argument, NULL, kLinger},
-      {"help", no_argument, NULL, kHelp},
-      {NULL, 0, NULL, 0}};
+  static const struct option opts[] = {{"domain", required_argument, NULL, kDomain},
+                                       {"scan-topic", required_argument, NULL, kScanTopic},
+                                       {"odom-topic", required_argument, NULL, kOdomTopic},
+                                       {"initialpose-topic", required_argument, NULL, kPoseTopic},
+                                       {"frame", required_argument, NULL, kFrame},
+                                       {"wait-readers", required_argument, NULL, kWaitReaders},
+                                       {"repeat", required_argument, NULL, kRepeat},
+                                       {"period", required_argument, NULL, kPeriod},
+                                       {"wait-timeout", required_argument, NULL, kWaitTimeout},
+                                       {"odom-frame", required_argument, NULL, kOdomFrame},
+                                       {"base-frame", required_argument, NULL, kBaseFrame},
+                                       {"map-frame", required_argument, NULL, kMapFrame},
+                                       {"best-effort", no_argument, NULL, kBestEffort},
+                                       {"settle", required_argument, NULL, kSettle},
+                                       {"linger", required_argument, NULL, kLinger},
+                                       {"help", no_argument, NULL, kHelp},
+                                       {NULL, 0, NULL, 0}};
   long domain = -1, wait_readers = 1, repeat = 1;
   const char *scan_topic = NULL, *odom_topic = NULL, *pose_topic = NULL, *frame = NULL;
   const char *odom_frame = "odom", *base_frame = "base_link", *map_frame = "map";
@@ -175,23 +188,56 @@ int hostile_main(int argc, char **argv) {
   opterr = 0;
   while ((opt = getopt_long(argc, argv, "", opts, NULL)) != -1) {
     switch (opt) {
-      case kDomain: domain = parse_long_arg(kCmd, "domain", optarg, 0, 232); break;
-      case kScanTopic: scan_topic = parse_string_arg(kCmd, "scan-topic", optarg); break;
-      case kOdomTopic: odom_topic = parse_string_arg(kCmd, "odom-topic", optarg); break;
-      case kPoseTopic: pose_topic = parse_string_arg(kCmd, "initialpose-topic", optarg); break;
-      case kFrame: frame = parse_string_arg(kCmd, "frame", optarg); break;
-      case kWaitReaders: wait_readers = parse_long_arg(kCmd, "wait-readers", optarg, 0, 1000); break;
-      case kRepeat: repeat = parse_long_arg(kCmd, "repeat", optarg, 1, 100000); break;
-      case kPeriod: period = parse_double_arg(kCmd, "period", optarg, 0, 1e5); break;
-      case kWaitTimeout: wait_timeout = parse_double_arg(kCmd, "wait-timeout", optarg, 0, 1e7); break;
-      case kOdomFrame: odom_frame = parse_string_arg(kCmd, "odom-frame", optarg); break;
-      case kBaseFrame: base_frame = parse_string_arg(kCmd, "base-frame", optarg); break;
-      case kMapFrame: map_frame = parse_string_arg(kCmd, "map-frame", optarg); break;
-      case kBestEffort: best_effort = true; break;
-      case kSettle: settle = parse_double_arg(kCmd, "settle", optarg, 0, 1e7); break;
-      case kLinger: linger = parse_double_arg(kCmd, "linger", optarg, 0, 1e7); break;
-      case kHelp: hostile_usage(stdout); return PEER_EXIT_OK;
-      default: bad_option(kCmd, argv);
+      case kDomain:
+        domain = parse_long_arg(kCmd, "domain", optarg, 0, 232);
+        break;
+      case kScanTopic:
+        scan_topic = parse_string_arg(kCmd, "scan-topic", optarg);
+        break;
+      case kOdomTopic:
+        odom_topic = parse_string_arg(kCmd, "odom-topic", optarg);
+        break;
+      case kPoseTopic:
+        pose_topic = parse_string_arg(kCmd, "initialpose-topic", optarg);
+        break;
+      case kFrame:
+        frame = parse_string_arg(kCmd, "frame", optarg);
+        break;
+      case kWaitReaders:
+        wait_readers = parse_long_arg(kCmd, "wait-readers", optarg, 0, 1000);
+        break;
+      case kRepeat:
+        repeat = parse_long_arg(kCmd, "repeat", optarg, 1, 100000);
+        break;
+      case kPeriod:
+        period = parse_double_arg(kCmd, "period", optarg, 0, 1e5);
+        break;
+      case kWaitTimeout:
+        wait_timeout = parse_double_arg(kCmd, "wait-timeout", optarg, 0, 1e7);
+        break;
+      case kOdomFrame:
+        odom_frame = parse_string_arg(kCmd, "odom-frame", optarg);
+        break;
+      case kBaseFrame:
+        base_frame = parse_string_arg(kCmd, "base-frame", optarg);
+        break;
+      case kMapFrame:
+        map_frame = parse_string_arg(kCmd, "map-frame", optarg);
+        break;
+      case kBestEffort:
+        best_effort = true;
+        break;
+      case kSettle:
+        settle = parse_double_arg(kCmd, "settle", optarg, 0, 1e7);
+        break;
+      case kLinger:
+        linger = parse_double_arg(kCmd, "linger", optarg, 0, 1e7);
+        break;
+      case kHelp:
+        hostile_usage(stdout);
+        return PEER_EXIT_OK;
+      default:
+        bad_option(kCmd, argv);
     }
   }
   reject_positional(kCmd, argc, argv, optind);
@@ -221,8 +267,8 @@ int hostile_main(int argc, char **argv) {
   if (pose_topic != NULL) {
     c.pose_w = create_writer_or_exit(
         participant,
-        create_topic_or_exit(participant,
-                             &geometry_msgs_msg_dds__PoseWithCovarianceStamped__desc, pose_topic),
+        create_topic_or_exit(participant, &geometry_msgs_msg_dds__PoseWithCovarianceStamped__desc,
+                             pose_topic),
         make_qos(true, false, 10));
   }
   if (!wait_for_readers(c.scan_w, wait_readers, wait_timeout)) {
@@ -243,9 +289,8 @@ int hostile_main(int argc, char **argv) {
   sleep_seconds(settle);
 
   float buf[181];
-  long n_backwards = 0, n_mismatch = 0, n_nan_inc = 0, n_zero_inc = 0,
-       n_wrong_frame = 0, n_nan_min = 0, n_odom_nan = 0, n_pose_nan = 0, n_pose_frame = 0,
-       n_valid = 0;
+  long n_backwards = 0, n_mismatch = 0, n_nan_inc = 0, n_zero_inc = 0, n_wrong_frame = 0,
+       n_nan_min = 0, n_odom_nan = 0, n_pose_nan = 0, n_pose_frame = 0, n_valid = 0;
 
   for (long k = 0; k < repeat; ++k) { /* first: the stamp order starts at 1000.0 */
     const double t = next_stamp(&c);
@@ -288,8 +333,8 @@ int hostile_main(int argc, char **argv) {
     nav_msgs_msg_dds__Odometry_ o;
     memset(&o, 0, sizeof o);
     o.header.stamp = stamp_from_seconds(next_stamp(&c));
-    o.header.frame_id = (char *)odom_frame;
-    o.child_frame_id = (char *)base_frame;
+    o.header.frame_id = (char*)odom_frame;
+    o.child_frame_id = (char*)base_frame;
     o.pose.pose.position.x = 1.0;
     o.pose.pose.orientation.x = o.pose.pose.orientation.y = NAN;
     o.pose.pose.orientation.z = o.pose.pose.orientation.w = NAN;
@@ -313,12 +358,14 @@ int hostile_main(int argc, char **argv) {
   }
   const bool interrupted = peer_stop != 0;
   if (!c.failed && !interrupted) sleep_seconds(linger);
-  printf("{\"scan_ranges_mismatch\":%ld,\"scan_nan_increment\":%ld,\"scan_zero_increment\":%ld,"
-         "\"scan_many_beams\":%ld,\"scan_huge\":%ld,\"scan_stamp_backwards\":%ld,\"scan_wrong_frame\":%ld,"
-         "\"scan_nan_angle_min\":%ld,\"odom_nan_quaternion\":%ld,\"initialpose_nan\":%ld,"
-         "\"initialpose_wrong_frame\":%ld,\"valid_scans\":%ld}\n",
-         n_mismatch, n_nan_inc, n_zero_inc, n_many, n_huge, n_backwards, n_wrong_frame, n_nan_min,
-         n_odom_nan, n_pose_nan, n_pose_frame, n_valid);
+  printf(
+      "{\"scan_ranges_mismatch\":%ld,\"scan_nan_increment\":%ld,\"scan_zero_increment\":%ld,"
+      "\"scan_many_beams\":%ld,\"scan_huge\":%ld,\"scan_stamp_backwards\":%ld,\"scan_wrong_frame\":"
+      "%ld,"
+      "\"scan_nan_angle_min\":%ld,\"odom_nan_quaternion\":%ld,\"initialpose_nan\":%ld,"
+      "\"initialpose_wrong_frame\":%ld,\"valid_scans\":%ld}\n",
+      n_mismatch, n_nan_inc, n_zero_inc, n_many, n_huge, n_backwards, n_wrong_frame, n_nan_min,
+      n_odom_nan, n_pose_nan, n_pose_frame, n_valid);
   fflush(stdout);
   dds_delete(participant);
   return (c.failed || interrupted) ? PEER_EXIT_FAIL : PEER_EXIT_OK;

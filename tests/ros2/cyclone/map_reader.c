@@ -8,9 +8,9 @@
 #include "peer_common.h"
 #include "subcommands.h"
 
-static const char *const kCmd = "map-reader";
+static const char* const kCmd = "map-reader";
 
-void map_reader_usage(FILE *f) {
+void map_reader_usage(FILE* f) {
   fprintf(f,
           "usage: esfleet-ros2-peer map-reader --domain D --out PREFIX [--timeout S] "
           "[--idle-exit S] [--until-maps N]\n"
@@ -36,16 +36,16 @@ typedef struct {
   uint32_t width, height;
   float resolution;
   geometry_msgs_msg_dds__Pose_ origin;
-  char *frame_id;
+  char* frame_id;
   builtin_interfaces_msg_dds__Time_ stamp;
-  int8_t *data; /* width*height */
+  int8_t* data; /* width*height */
 } grid_t;
 
 typedef struct {
   builtin_interfaces_msg_dds__Time_ stamp;
   int32_t x, y;
   uint32_t width, height;
-  int8_t *data;
+  int8_t* data;
   uint32_t length;
 } update_t;
 
@@ -58,22 +58,22 @@ typedef struct {
   double first_map_after_s;
   bool have_update_stamp;
   builtin_interfaces_msg_dds__Time_ last_update_stamp; /* newest applied update */
-  update_t *pending;
+  update_t* pending;
   size_t n_pending, cap_pending;
 } state_t;
 
 enum { kMaxPending = 4096 };
 
-static void grid_free(grid_t *g) {
+static void grid_free(grid_t* g) {
   free(g->frame_id);
   free(g->data);
   memset(g, 0, sizeof *g);
 }
 
-static char *dup_string(const char *s) {
-  const char *src = s ? s : "";
+static char* dup_string(const char* s) {
+  const char* src = s ? s : "";
   const size_t n = strlen(src);
-  char *out = malloc(n + 1);
+  char* out = malloc(n + 1);
   if (out == NULL) {
     fprintf(stderr, "esfleet-ros2-peer map-reader: out of memory\n");
     exit(PEER_EXIT_FAIL);
@@ -82,8 +82,8 @@ static char *dup_string(const char *s) {
   return out;
 }
 
-static void *checked_malloc(size_t n) {
-  void *p = malloc(n ? n : 1);
+static void* checked_malloc(size_t n) {
+  void* p = malloc(n ? n : 1);
   if (p == NULL) {
     fprintf(stderr, "esfleet-ros2-peer map-reader: out of memory (%zu bytes)\n", n);
     exit(PEER_EXIT_FAIL);
@@ -92,11 +92,10 @@ static void *checked_malloc(size_t n) {
 }
 
 /* Copies a received map; false (and a message) if its data length is not width*height. */
-static bool grid_from_msg(grid_t *g, const nav_msgs_msg_dds__OccupancyGrid_ *m) {
+static bool grid_from_msg(grid_t* g, const nav_msgs_msg_dds__OccupancyGrid_* m) {
   const uint64_t cells = (uint64_t)m->info.width * (uint64_t)m->info.height;
   if ((uint64_t)m->data._length != cells || (cells > 0 && m->data._buffer == NULL)) {
-    fprintf(stderr,
-            "esfleet-ros2-peer map-reader: /map ignored: %u x %u cells but %u data bytes\n",
+    fprintf(stderr, "esfleet-ros2-peer map-reader: /map ignored: %u x %u cells but %u data bytes\n",
             m->info.width, m->info.height, m->data._length);
     return false;
   }
@@ -111,7 +110,7 @@ static bool grid_from_msg(grid_t *g, const nav_msgs_msg_dds__OccupancyGrid_ *m) 
   return true;
 }
 
-static bool grid_copy(grid_t *dst, const grid_t *src) {
+static bool grid_copy(grid_t* dst, const grid_t* src) {
   *dst = *src;
   dst->frame_id = dup_string(src->frame_id);
   const size_t cells = (size_t)src->width * src->height;
@@ -122,7 +121,7 @@ static bool grid_copy(grid_t *dst, const grid_t *src) {
 
 static bool same_double(double a, double b) { return a == b || (isnan(a) && isnan(b)); }
 
-static bool same_geometry(const grid_t *a, const grid_t *b) {
+static bool same_geometry(const grid_t* a, const grid_t* b) {
   const geometry_msgs_msg_dds__Pose_ *p = &a->origin, *q = &b->origin;
   return a->width == b->width && a->height == b->height &&
          (a->resolution == b->resolution || (isnan(a->resolution) && isnan(b->resolution))) &&
@@ -135,8 +134,8 @@ static bool same_geometry(const grid_t *a, const grid_t *b) {
 }
 
 /* Applies (or counts) one update against G. */
-static void apply_update(state_t *s, const update_t *u) {
-  grid_t *g = &s->applied;
+static void apply_update(state_t* s, const update_t* u) {
+  grid_t* g = &s->applied;
   const int64_t x = u->x, y = u->y, w = u->width, h = u->height;
   if ((uint64_t)u->length != (uint64_t)w * (uint64_t)h) {
     ++s->updates_malformed;
@@ -162,7 +161,7 @@ static void apply_update(state_t *s, const update_t *u) {
   }
 }
 
-static void on_map(state_t *s, const nav_msgs_msg_dds__OccupancyGrid_ *m, double t0) {
+static void on_map(state_t* s, const nav_msgs_msg_dds__OccupancyGrid_* m, double t0) {
   grid_t incoming;
   memset(&incoming, 0, sizeof incoming);
   if (!grid_from_msg(&incoming, m)) return;
@@ -188,7 +187,7 @@ static void on_map(state_t *s, const nav_msgs_msg_dds__OccupancyGrid_ *m, double
   s->last = incoming;
 }
 
-static void on_update(state_t *s, const map_msgs_msg_dds__OccupancyGridUpdate_ *m) {
+static void on_update(state_t* s, const map_msgs_msg_dds__OccupancyGridUpdate_* m) {
   ++s->updates_received;
   update_t u;
   u.stamp = m->header.stamp;
@@ -212,7 +211,7 @@ static void on_update(state_t *s, const map_msgs_msg_dds__OccupancyGridUpdate_ *
   }
   if (s->n_pending == s->cap_pending) {
     const size_t cap = s->cap_pending ? 2 * s->cap_pending : 64;
-    update_t *p = realloc(s->pending, cap * sizeof *p);
+    update_t* p = realloc(s->pending, cap * sizeof *p);
     if (p == NULL) {
       ++s->updates_dropped;
       return;
@@ -227,11 +226,11 @@ static void on_update(state_t *s, const map_msgs_msg_dds__OccupancyGridUpdate_ *
 
 /* ---- output ---- */
 
-static bool write_bytes_atomically(const char *path, const void *data, size_t n) {
+static bool write_bytes_atomically(const char* path, const void* data, size_t n) {
   const size_t len = strlen(path) + 5;
-  char *tmp = checked_malloc(len);
+  char* tmp = checked_malloc(len);
   snprintf(tmp, len, "%s.tmp", path);
-  FILE *f = fopen(tmp, "wb");
+  FILE* f = fopen(tmp, "wb");
   bool ok = f != NULL;
   if (ok && n > 0) ok = fwrite(data, 1, n, f) == n;
   if (f != NULL && fclose(f) != 0) ok = false;
@@ -244,24 +243,24 @@ static bool write_bytes_atomically(const char *path, const void *data, size_t n)
   return ok;
 }
 
-static char *path_with(const char *prefix, const char *suffix) {
+static char* path_with(const char* prefix, const char* suffix) {
   const size_t len = strlen(prefix) + strlen(suffix) + 1;
-  char *p = checked_malloc(len);
+  char* p = checked_malloc(len);
   snprintf(p, len, "%s%s", prefix, suffix);
   return p;
 }
 
 /* {"width",...} for grid g plus the counters. */
-static bool write_grid(const state_t *s, const grid_t *g, const char *prefix, const char *which,
+static bool write_grid(const state_t* s, const grid_t* g, const char* prefix, const char* which,
                        bool applied) {
-  char *bin = path_with(prefix, which);
-  char *bin_path = path_with(bin, ".bin");
-  char *json_path = path_with(bin, ".json");
+  char* bin = path_with(prefix, which);
+  char* bin_path = path_with(bin, ".bin");
+  char* json_path = path_with(bin, ".json");
   bool ok = write_bytes_atomically(bin_path, g->data, (size_t)g->width * g->height);
 
-  char *buf = NULL;
+  char* buf = NULL;
   size_t size = 0;
-  FILE *f = open_memstream(&buf, &size);
+  FILE* f = open_memstream(&buf, &size);
   if (f == NULL) {
     ok = false;
   } else {
@@ -308,10 +307,10 @@ static bool write_grid(const state_t *s, const grid_t *g, const char *prefix, co
 typedef struct {
   bool is_map;
   dds_time_t source_timestamp;
-  const void *sample;
+  const void* sample;
 } received_t;
 
-static int by_source_time(const void *a, const void *b) {
+static int by_source_time(const void* a, const void* b) {
   const received_t *x = a, *y = b;
   if (x->source_timestamp != y->source_timestamp) {
     return x->source_timestamp < y->source_timestamp ? -1 : 1;
@@ -324,16 +323,15 @@ enum { kBatch = 64 };
 
 /* Takes what both readers hold and processes it in source-timestamp order (esfleet writes both
  * topics from one process, so that is its publication order). Returns the number taken. */
-static int take_and_process(state_t *s, dds_entity_t map_reader, dds_entity_t update_reader,
+static int take_and_process(state_t* s, dds_entity_t map_reader, dds_entity_t update_reader,
                             double t0) {
-  void *maps[kBatch] = {NULL};
-  void *updates[kBatch] = {NULL};
+  void* maps[kBatch] = {NULL};
+  void* updates[kBatch] = {NULL};
   dds_sample_info_t map_info[kBatch], update_info[kBatch];
   int n_maps = dds_take(map_reader, maps, map_info, kBatch, kBatch);
   int n_updates = dds_take(update_reader, updates, update_info, kBatch, kBatch);
   if (n_maps < 0) {
-    fprintf(stderr, "esfleet-ros2-peer map-reader: dds_take(rt/map): %s\n",
-            dds_strretcode(n_maps));
+    fprintf(stderr, "esfleet-ros2-peer map-reader: dds_take(rt/map): %s\n", dds_strretcode(n_maps));
     n_maps = 0;
   }
   if (n_updates < 0) {
@@ -366,26 +364,41 @@ static int take_and_process(state_t *s, dds_entity_t map_reader, dds_entity_t up
   return n;
 }
 
-int map_reader_main(int argc, char **argv) {
-  static const struct option opts[] = {
-      {"domain", required_argument, NULL, 'd'},   {"out", required_argument, NULL, 'o'},
-      {"timeout", required_argument, NULL, 't'},  {"idle-exit", required_argument, NULL, 'i'},
-      {"until-maps", required_argument, NULL, 'n'}, {"help", no_argument, NULL, 'h'},
-      {NULL, 0, NULL, 0}};
+int map_reader_main(int argc, char** argv) {
+  static const struct option opts[] = {{"domain", required_argument, NULL, 'd'},
+                                       {"out", required_argument, NULL, 'o'},
+                                       {"timeout", required_argument, NULL, 't'},
+                                       {"idle-exit", required_argument, NULL, 'i'},
+                                       {"until-maps", required_argument, NULL, 'n'},
+                                       {"help", no_argument, NULL, 'h'},
+                                       {NULL, 0, NULL, 0}};
   long domain = -1, until_maps = 0;
-  const char *prefix = NULL;
+  const char* prefix = NULL;
   double timeout = 60, idle_exit = 0;
   int c;
   opterr = 0;
   while ((c = getopt_long(argc, argv, "", opts, NULL)) != -1) {
     switch (c) {
-      case 'd': domain = parse_long_arg(kCmd, "domain", optarg, 0, 232); break;
-      case 'o': prefix = parse_string_arg(kCmd, "out", optarg); break;
-      case 't': timeout = parse_double_arg(kCmd, "timeout", optarg, 0, 1e7); break;
-      case 'i': idle_exit = parse_double_arg(kCmd, "idle-exit", optarg, 0, 1e7); break;
-      case 'n': until_maps = parse_long_arg(kCmd, "until-maps", optarg, 0, 1000000000L); break;
-      case 'h': map_reader_usage(stdout); return PEER_EXIT_OK;
-      default: bad_option(kCmd, argv);
+      case 'd':
+        domain = parse_long_arg(kCmd, "domain", optarg, 0, 232);
+        break;
+      case 'o':
+        prefix = parse_string_arg(kCmd, "out", optarg);
+        break;
+      case 't':
+        timeout = parse_double_arg(kCmd, "timeout", optarg, 0, 1e7);
+        break;
+      case 'i':
+        idle_exit = parse_double_arg(kCmd, "idle-exit", optarg, 0, 1e7);
+        break;
+      case 'n':
+        until_maps = parse_long_arg(kCmd, "until-maps", optarg, 0, 1000000000L);
+        break;
+      case 'h':
+        map_reader_usage(stdout);
+        return PEER_EXIT_OK;
+      default:
+        bad_option(kCmd, argv);
     }
   }
   reject_positional(kCmd, argc, argv, optind);
@@ -413,7 +426,7 @@ int map_reader_main(int argc, char **argv) {
   state_t s;
   memset(&s, 0, sizeof s);
   double last_message = monotonic_seconds();
-  const char *reason = "signal";
+  const char* reason = "signal";
   for (;;) {
     if (peer_stop) break;
     const double now = monotonic_seconds();
@@ -441,11 +454,12 @@ int map_reader_main(int argc, char **argv) {
   } else {
     fprintf(stderr, "esfleet-ros2-peer map-reader: no /map received (%s)\n", reason);
   }
-  printf("{\"exit\":\"%s\",\"maps_received\":%ld,\"updates_received\":%ld,"
-         "\"updates_applied\":%ld,\"updates_outside\":%ld,\"updates_stale\":%ld,"
-         "\"updates_malformed\":%ld,\"geometry_changes\":%ld}\n",
-         reason, s.maps_received, s.updates_received, s.updates_applied, s.updates_outside,
-         s.updates_stale, s.updates_malformed, s.geometry_changes);
+  printf(
+      "{\"exit\":\"%s\",\"maps_received\":%ld,\"updates_received\":%ld,"
+      "\"updates_applied\":%ld,\"updates_outside\":%ld,\"updates_stale\":%ld,"
+      "\"updates_malformed\":%ld,\"geometry_changes\":%ld}\n",
+      reason, s.maps_received, s.updates_received, s.updates_applied, s.updates_outside,
+      s.updates_stale, s.updates_malformed, s.geometry_changes);
   fflush(stdout);
 
   for (size_t i = 0; i < s.n_pending; ++i) free(s.pending[i].data);

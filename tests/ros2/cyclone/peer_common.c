@@ -29,7 +29,7 @@ void install_signal_handlers(void) {
 
 /* ---- arguments ---- */
 
-_Noreturn void usage_error(const char *cmd, const char *fmt, ...) {
+_Noreturn void usage_error(const char* cmd, const char* fmt, ...) {
   va_list ap;
   fprintf(stderr, "esfleet-ros2-peer %s: ", cmd);
   va_start(ap, fmt);
@@ -39,10 +39,10 @@ _Noreturn void usage_error(const char *cmd, const char *fmt, ...) {
   exit(PEER_EXIT_USAGE);
 }
 
-long parse_long_arg(const char *cmd, const char *name, const char *text, long min, long max) {
+long parse_long_arg(const char* cmd, const char* name, const char* text, long min, long max) {
   if (text == NULL || *text == '\0') usage_error(cmd, "--%s: empty value", name);
   errno = 0;
-  char *end = NULL;
+  char* end = NULL;
   const long v = strtol(text, &end, 10);
   if (errno != 0 || end == text || *end != '\0') {
     usage_error(cmd, "--%s: not an integer: '%s'", name, text);
@@ -53,11 +53,11 @@ long parse_long_arg(const char *cmd, const char *name, const char *text, long mi
   return v;
 }
 
-double parse_double_arg(const char *cmd, const char *name, const char *text, double min,
+double parse_double_arg(const char* cmd, const char* name, const char* text, double min,
                         double max) {
   if (text == NULL || *text == '\0') usage_error(cmd, "--%s: empty value", name);
   errno = 0;
-  char *end = NULL;
+  char* end = NULL;
   const double v = strtod(text, &end);
   if (end == text || *end != '\0' || errno == ERANGE) {
     usage_error(cmd, "--%s: not a number: '%s'", name, text);
@@ -67,16 +67,16 @@ double parse_double_arg(const char *cmd, const char *name, const char *text, dou
   return v;
 }
 
-const char *parse_string_arg(const char *cmd, const char *name, const char *text) {
+const char* parse_string_arg(const char* cmd, const char* name, const char* text) {
   if (text == NULL || *text == '\0') usage_error(cmd, "--%s: empty value", name);
   return text;
 }
 
-void require_arg(const char *cmd, const char *name, bool given) {
+void require_arg(const char* cmd, const char* name, bool given) {
   if (!given) usage_error(cmd, "--%s is required", name);
 }
 
-void reject_positional(const char *cmd, int argc, char **argv, int optind) {
+void reject_positional(const char* cmd, int argc, char** argv, int optind) {
   if (optind < argc) usage_error(cmd, "unexpected argument '%s'", argv[optind]);
 }
 
@@ -118,15 +118,15 @@ builtin_interfaces_msg_dds__Time_ stamp_from_seconds(double t) {
   return out;
 }
 
-double stamp_seconds(const builtin_interfaces_msg_dds__Time_ *t) {
+double stamp_seconds(const builtin_interfaces_msg_dds__Time_* t) {
   return (double)t->sec + (double)t->nanosec * 1e-9;
 }
 
-int64_t stamp_nanoseconds(const builtin_interfaces_msg_dds__Time_ *t) {
+int64_t stamp_nanoseconds(const builtin_interfaces_msg_dds__Time_* t) {
   return (int64_t)t->sec * 1000000000LL + (int64_t)t->nanosec;
 }
 
-double yaw_of_quaternion(const geometry_msgs_msg_dds__Quaternion_ *q) {
+double yaw_of_quaternion(const geometry_msgs_msg_dds__Quaternion_* q) {
   return atan2(2.0 * (q->w * q->z + q->x * q->y), 1.0 - 2.0 * (q->y * q->y + q->z * q->z));
 }
 
@@ -147,8 +147,8 @@ dds_entity_t create_participant_or_exit(long domain) {
   return p;
 }
 
-dds_entity_t create_topic_or_exit(dds_entity_t participant, const dds_topic_descriptor_t *desc,
-                                  const char *name) {
+dds_entity_t create_topic_or_exit(dds_entity_t participant, const dds_topic_descriptor_t* desc,
+                                  const char* name) {
   const dds_entity_t t = dds_create_topic(participant, desc, name, NULL, NULL);
   if (t < 0) {
     fprintf(stderr, "esfleet-ros2-peer: dds_create_topic(%s, %s): %s\n", name, desc->m_typename,
@@ -158,36 +158,36 @@ dds_entity_t create_topic_or_exit(dds_entity_t participant, const dds_topic_desc
   return t;
 }
 
-dds_qos_t *make_qos(bool reliable, bool transient_local, int32_t depth) {
-  dds_qos_t *q = dds_create_qos();
+dds_qos_t* make_qos(bool reliable, bool transient_local, int32_t depth) {
+  dds_qos_t* q = dds_create_qos();
   if (reliable) {
     dds_qset_reliability(q, DDS_RELIABILITY_RELIABLE, DDS_SECS(10));
   } else {
     dds_qset_reliability(q, DDS_RELIABILITY_BEST_EFFORT, 0);
   }
-  dds_qset_durability(q, transient_local ? DDS_DURABILITY_TRANSIENT_LOCAL
-                                         : DDS_DURABILITY_VOLATILE);
+  dds_qset_durability(q,
+                      transient_local ? DDS_DURABILITY_TRANSIENT_LOCAL : DDS_DURABILITY_VOLATILE);
   dds_qset_history(q, DDS_HISTORY_KEEP_LAST, depth);
   const dds_data_representation_id_t xcdr1[1] = {DDS_DATA_REPRESENTATION_XCDR1};
   dds_qset_data_representation(q, 1, xcdr1);
   return q;
 }
 
-static void entity_failure(const char *what, dds_entity_t topic, dds_return_t rc) {
+static void entity_failure(const char* what, dds_entity_t topic, dds_return_t rc) {
   char name[256] = "?";
   dds_get_name(topic, name, sizeof name);
   fprintf(stderr, "esfleet-ros2-peer: %s on %s: %s\n", what, name, dds_strretcode(rc));
   exit(PEER_EXIT_FAIL);
 }
 
-dds_entity_t create_reader_or_exit(dds_entity_t participant, dds_entity_t topic, dds_qos_t *qos) {
+dds_entity_t create_reader_or_exit(dds_entity_t participant, dds_entity_t topic, dds_qos_t* qos) {
   const dds_entity_t r = dds_create_reader(participant, topic, qos, NULL);
   dds_delete_qos(qos);
   if (r < 0) entity_failure("dds_create_reader", topic, r);
   return r;
 }
 
-dds_entity_t create_writer_or_exit(dds_entity_t participant, dds_entity_t topic, dds_qos_t *qos) {
+dds_entity_t create_writer_or_exit(dds_entity_t participant, dds_entity_t topic, dds_qos_t* qos) {
   const dds_entity_t w = dds_create_writer(participant, topic, qos, NULL);
   dds_delete_qos(qos);
   if (w < 0) entity_failure("dds_create_writer", topic, w);
@@ -209,7 +209,7 @@ bool wait_for_readers(dds_entity_t writer, long n, double timeout_s) {
   return false;
 }
 
-bool write_sample(dds_entity_t writer, const void *sample, const char *what) {
+bool write_sample(dds_entity_t writer, const void* sample, const char* what) {
   const dds_return_t rc = dds_write(writer, sample);
   if (rc != DDS_RETCODE_OK) {
     fprintf(stderr, "esfleet-ros2-peer: dds_write(%s): %s\n", what, dds_strretcode(rc));
@@ -220,15 +220,25 @@ bool write_sample(dds_entity_t writer, const void *sample, const char *what) {
 
 /* ---- JSON ---- */
 
-void json_string(FILE *f, const char *s) {
+void json_string(FILE* f, const char* s) {
   fputc('"', f);
-  for (const unsigned char *p = (const unsigned char *)(s ? s : ""); *p; ++p) {
+  for (const unsigned char* p = (const unsigned char*)(s ? s : ""); *p; ++p) {
     switch (*p) {
-      case '"': fputs("\\\"", f); break;
-      case '\\': fputs("\\\\", f); break;
-      case '\n': fputs("\\n", f); break;
-      case '\r': fputs("\\r", f); break;
-      case '\t': fputs("\\t", f); break;
+      case '"':
+        fputs("\\\"", f);
+        break;
+      case '\\':
+        fputs("\\\\", f);
+        break;
+      case '\n':
+        fputs("\\n", f);
+        break;
+      case '\r':
+        fputs("\\r", f);
+        break;
+      case '\t':
+        fputs("\\t", f);
+        break;
       default:
         /* control characters and non-ASCII bytes as \u00XX: always valid JSON */
         if (*p < 0x20 || *p >= 0x7f) {
@@ -241,7 +251,7 @@ void json_string(FILE *f, const char *s) {
   fputc('"', f);
 }
 
-void json_stamp(FILE *f, const builtin_interfaces_msg_dds__Time_ *t) {
+void json_stamp(FILE* f, const builtin_interfaces_msg_dds__Time_* t) {
   if (t->sec >= 0 && t->nanosec < 1000000000u) {
     fprintf(f, "%d.%09u", (int)t->sec, (unsigned)t->nanosec);
   } else {
@@ -249,7 +259,7 @@ void json_stamp(FILE *f, const builtin_interfaces_msg_dds__Time_ *t) {
   }
 }
 
-void json_double(FILE *f, double v) {
+void json_double(FILE* f, double v) {
   if (!isfinite(v)) {
     fputs("null", f);
     return;
@@ -262,7 +272,7 @@ void json_double(FILE *f, double v) {
   fputs(buf, f);
 }
 
-void json_float(FILE *f, float v) {
+void json_float(FILE* f, float v) {
   if (!isfinite(v)) {
     fputs("null", f);
     return;

@@ -12,7 +12,7 @@
 
 /* ================================ pose-reader ================================ */
 
-void pose_reader_usage(FILE *f) {
+void pose_reader_usage(FILE* f) {
   fprintf(
       f,
       "usage: esfleet-ros2-peer pose-reader --domain D --topic T [--tf] [--count N]\n"
@@ -33,8 +33,8 @@ void pose_reader_usage(FILE *f) {
       "  --volatile    read T volatile (to match a volatile writer such as `initialpose`)\n");
 }
 
-static void print_pose_line(FILE *out, const geometry_msgs_msg_dds__PoseWithCovarianceStamped_ *m) {
-  const geometry_msgs_msg_dds__Pose_ *p = &m->pose.pose;
+static void print_pose_line(FILE* out, const geometry_msgs_msg_dds__PoseWithCovarianceStamped_* m) {
+  const geometry_msgs_msg_dds__Pose_* p = &m->pose.pose;
   fputs("{\"kind\":\"pose\",\"stamp\":", out);
   json_stamp(out, &m->header.stamp);
   fputs(",\"frame\":", out);
@@ -56,10 +56,10 @@ static void print_pose_line(FILE *out, const geometry_msgs_msg_dds__PoseWithCova
   fflush(out);
 }
 
-static void print_tf_lines(FILE *out, const tf2_msgs_msg_dds__TFMessage_ *m, bool is_static) {
+static void print_tf_lines(FILE* out, const tf2_msgs_msg_dds__TFMessage_* m, bool is_static) {
   const uint32_t n = m->transforms._buffer != NULL ? m->transforms._length : 0;
   for (uint32_t i = 0; i < n; ++i) {
-    const geometry_msgs_msg_dds__TransformStamped_ *t = &m->transforms._buffer[i];
+    const geometry_msgs_msg_dds__TransformStamped_* t = &m->transforms._buffer[i];
     fprintf(out, "{\"kind\":\"tf\",\"static\":%s,\"parent\":", is_static ? "true" : "false");
     json_string(out, t->header.frame_id);
     fputs(",\"child\":", out);
@@ -82,9 +82,9 @@ static void print_tf_lines(FILE *out, const tf2_msgs_msg_dds__TFMessage_ *m, boo
 enum { kBatch = 32 };
 
 /* Takes everything from a reader; returns the number of valid samples. */
-static int drain(dds_entity_t reader, FILE *out, int kind /* 0 pose, 1 tf, 2 tf_static */,
-                 long *poses, long max_poses) {
-  void *samples[kBatch] = {NULL};
+static int drain(dds_entity_t reader, FILE* out, int kind /* 0 pose, 1 tf, 2 tf_static */,
+                 long* poses, long max_poses) {
+  void* samples[kBatch] = {NULL};
   dds_sample_info_t info[kBatch];
   const int n = dds_take(reader, samples, info, kBatch, kBatch);
   if (n <= 0) return 0;
@@ -105,15 +105,18 @@ static int drain(dds_entity_t reader, FILE *out, int kind /* 0 pose, 1 tf, 2 tf_
   return valid;
 }
 
-int pose_reader_main(int argc, char **argv) {
-  static const char *const kCmd = "pose-reader";
+int pose_reader_main(int argc, char** argv) {
+  static const char* const kCmd = "pose-reader";
   enum { kDomain = 1000, kTopic, kTf, kCount, kTimeout, kOut, kVolatile, kHelp };
-  static const struct option opts[] = {
-      {"domain", required_argument, NULL, kDomain}, {"topic", required_argument, NULL, kTopic},
-      {"tf", no_argument, NULL, kTf},               {"count", required_argument, NULL, kCount},
-      {"timeout", required_argument, NULL, kTimeout}, {"out", required_argument, NULL, kOut},
-      {"volatile", no_argument, NULL, kVolatile},   {"help", no_argument, NULL, kHelp},
-      {NULL, 0, NULL, 0}};
+  static const struct option opts[] = {{"domain", required_argument, NULL, kDomain},
+                                       {"topic", required_argument, NULL, kTopic},
+                                       {"tf", no_argument, NULL, kTf},
+                                       {"count", required_argument, NULL, kCount},
+                                       {"timeout", required_argument, NULL, kTimeout},
+                                       {"out", required_argument, NULL, kOut},
+                                       {"volatile", no_argument, NULL, kVolatile},
+                                       {"help", no_argument, NULL, kHelp},
+                                       {NULL, 0, NULL, 0}};
   long domain = -1, count = 1;
   const char *topic = NULL, *out_path = NULL;
   bool tf = false, volatile_pose = false;
@@ -122,21 +125,38 @@ int pose_reader_main(int argc, char **argv) {
   opterr = 0;
   while ((c = getopt_long(argc, argv, "", opts, NULL)) != -1) {
     switch (c) {
-      case kDomain: domain = parse_long_arg(kCmd, "domain", optarg, 0, 232); break;
-      case kTopic: topic = parse_string_arg(kCmd, "topic", optarg); break;
-      case kTf: tf = true; break;
-      case kCount: count = parse_long_arg(kCmd, "count", optarg, 1, 2000000000L); break;
-      case kTimeout: timeout = parse_double_arg(kCmd, "timeout", optarg, 0, 1e7); break;
-      case kOut: out_path = parse_string_arg(kCmd, "out", optarg); break;
-      case kVolatile: volatile_pose = true; break;
-      case kHelp: pose_reader_usage(stdout); return PEER_EXIT_OK;
-      default: bad_option(kCmd, argv);
+      case kDomain:
+        domain = parse_long_arg(kCmd, "domain", optarg, 0, 232);
+        break;
+      case kTopic:
+        topic = parse_string_arg(kCmd, "topic", optarg);
+        break;
+      case kTf:
+        tf = true;
+        break;
+      case kCount:
+        count = parse_long_arg(kCmd, "count", optarg, 1, 2000000000L);
+        break;
+      case kTimeout:
+        timeout = parse_double_arg(kCmd, "timeout", optarg, 0, 1e7);
+        break;
+      case kOut:
+        out_path = parse_string_arg(kCmd, "out", optarg);
+        break;
+      case kVolatile:
+        volatile_pose = true;
+        break;
+      case kHelp:
+        pose_reader_usage(stdout);
+        return PEER_EXIT_OK;
+      default:
+        bad_option(kCmd, argv);
     }
   }
   reject_positional(kCmd, argc, argv, optind);
   require_arg(kCmd, "domain", domain >= 0);
   require_arg(kCmd, "topic", topic != NULL);
-  FILE *out = stdout;
+  FILE* out = stdout;
   if (out_path != NULL) {
     out = fopen(out_path, "w");
     if (out == NULL) usage_error(kCmd, "--out: cannot open '%s': %s", out_path, strerror(errno));
@@ -153,8 +173,7 @@ int pose_reader_main(int argc, char **argv) {
       make_qos(true, !volatile_pose, 1));
   if (tf) {
     readers[1] = create_reader_or_exit(
-        participant,
-        create_topic_or_exit(participant, &tf2_msgs_msg_dds__TFMessage__desc, "rt/tf"),
+        participant, create_topic_or_exit(participant, &tf2_msgs_msg_dds__TFMessage__desc, "rt/tf"),
         make_qos(true, false, 100));
     readers[2] = create_reader_or_exit(
         participant,
@@ -187,7 +206,7 @@ int pose_reader_main(int argc, char **argv) {
 
 /* ================================ initialpose ================================ */
 
-void initialpose_usage(FILE *f) {
+void initialpose_usage(FILE* f) {
   fprintf(
       f,
       "usage: esfleet-ros2-peer initialpose --domain D --topic T --x X --y Y --yaw A\n"
@@ -209,28 +228,39 @@ void initialpose_usage(FILE *f) {
       "  --period S          default 0.5\n");
 }
 
-int initialpose_main(int argc, char **argv) {
-  static const char *const kCmd = "initialpose";
+int initialpose_main(int argc, char** argv) {
+  static const char* const kCmd = "initialpose";
   enum {
-    kDomain = 1000, kTopic, kX, kY, kYaw, kSigmaXy, kSigmaYaw, kFrame, kStamp, kWaitReaders,
-    kWaitTimeout, kRepeat, kPeriod, kHelp
+    kDomain = 1000,
+    kTopic,
+    kX,
+    kY,
+    kYaw,
+    kSigmaXy,
+    kSigmaYaw,
+    kFrame,
+    kStamp,
+    kWaitReaders,
+    kWaitTimeout,
+    kRepeat,
+    kPeriod,
+    kHelp
   };
-  static const struct option opts[] = {
-      {"domain", required_argument, NULL, kDomain},
-      {"topic", required_argument, NULL, kTopic},
-      {"x", required_argument, NULL, kX},
-      {"y", required_argument, NULL, kY},
-      {"yaw", required_argument, NULL, kYaw},
-      {"sigma-xy", required_argument, NULL, kSigmaXy},
-      {"sigma-yaw", required_argument, NULL, kSigmaYaw},
-      {"frame", required_argument, NULL, kFrame},
-      {"stamp", required_argument, NULL, kStamp},
-      {"wait-readers", required_argument, NULL, kWaitReaders},
-      {"wait-timeout", required_argument, NULL, kWaitTimeout},
-      {"repeat", required_argument, NULL, kRepeat},
-      {"period", required_argument, NULL, kPeriod},
-      {"help", no_argument, NULL, kHelp},
-      {NULL, 0, NULL, 0}};
+  static const struct option opts[] = {{"domain", required_argument, NULL, kDomain},
+                                       {"topic", required_argument, NULL, kTopic},
+                                       {"x", required_argument, NULL, kX},
+                                       {"y", required_argument, NULL, kY},
+                                       {"yaw", required_argument, NULL, kYaw},
+                                       {"sigma-xy", required_argument, NULL, kSigmaXy},
+                                       {"sigma-yaw", required_argument, NULL, kSigmaYaw},
+                                       {"frame", required_argument, NULL, kFrame},
+                                       {"stamp", required_argument, NULL, kStamp},
+                                       {"wait-readers", required_argument, NULL, kWaitReaders},
+                                       {"wait-timeout", required_argument, NULL, kWaitTimeout},
+                                       {"repeat", required_argument, NULL, kRepeat},
+                                       {"period", required_argument, NULL, kPeriod},
+                                       {"help", no_argument, NULL, kHelp},
+                                       {NULL, 0, NULL, 0}};
   long domain = -1, wait_readers = 1, repeat = 3;
   const char *topic = NULL, *frame = "map";
   double x = 0, y = 0, yaw = 0, sigma_xy = 0.5, sigma_yaw = 0.3, stamp = 0, wait_timeout = 30,
@@ -240,21 +270,53 @@ int initialpose_main(int argc, char **argv) {
   opterr = 0;
   while ((c = getopt_long(argc, argv, "", opts, NULL)) != -1) {
     switch (c) {
-      case kDomain: domain = parse_long_arg(kCmd, "domain", optarg, 0, 232); break;
-      case kTopic: topic = parse_string_arg(kCmd, "topic", optarg); break;
-      case kX: x = parse_double_arg(kCmd, "x", optarg, -1e9, 1e9); have_x = true; break;
-      case kY: y = parse_double_arg(kCmd, "y", optarg, -1e9, 1e9); have_y = true; break;
-      case kYaw: yaw = parse_double_arg(kCmd, "yaw", optarg, -1e3, 1e3); have_yaw = true; break;
-      case kSigmaXy: sigma_xy = parse_double_arg(kCmd, "sigma-xy", optarg, 0, 1e6); break;
-      case kSigmaYaw: sigma_yaw = parse_double_arg(kCmd, "sigma-yaw", optarg, 0, 1e3); break;
-      case kFrame: frame = parse_string_arg(kCmd, "frame", optarg); break;
-      case kStamp: stamp = parse_double_arg(kCmd, "stamp", optarg, 0, 2147483647.0); break;
-      case kWaitReaders: wait_readers = parse_long_arg(kCmd, "wait-readers", optarg, 0, 1000); break;
-      case kWaitTimeout: wait_timeout = parse_double_arg(kCmd, "wait-timeout", optarg, 0, 1e7); break;
-      case kRepeat: repeat = parse_long_arg(kCmd, "repeat", optarg, 1, 1000000); break;
-      case kPeriod: period = parse_double_arg(kCmd, "period", optarg, 0, 1e5); break;
-      case kHelp: initialpose_usage(stdout); return PEER_EXIT_OK;
-      default: bad_option(kCmd, argv);
+      case kDomain:
+        domain = parse_long_arg(kCmd, "domain", optarg, 0, 232);
+        break;
+      case kTopic:
+        topic = parse_string_arg(kCmd, "topic", optarg);
+        break;
+      case kX:
+        x = parse_double_arg(kCmd, "x", optarg, -1e9, 1e9);
+        have_x = true;
+        break;
+      case kY:
+        y = parse_double_arg(kCmd, "y", optarg, -1e9, 1e9);
+        have_y = true;
+        break;
+      case kYaw:
+        yaw = parse_double_arg(kCmd, "yaw", optarg, -1e3, 1e3);
+        have_yaw = true;
+        break;
+      case kSigmaXy:
+        sigma_xy = parse_double_arg(kCmd, "sigma-xy", optarg, 0, 1e6);
+        break;
+      case kSigmaYaw:
+        sigma_yaw = parse_double_arg(kCmd, "sigma-yaw", optarg, 0, 1e3);
+        break;
+      case kFrame:
+        frame = parse_string_arg(kCmd, "frame", optarg);
+        break;
+      case kStamp:
+        stamp = parse_double_arg(kCmd, "stamp", optarg, 0, 2147483647.0);
+        break;
+      case kWaitReaders:
+        wait_readers = parse_long_arg(kCmd, "wait-readers", optarg, 0, 1000);
+        break;
+      case kWaitTimeout:
+        wait_timeout = parse_double_arg(kCmd, "wait-timeout", optarg, 0, 1e7);
+        break;
+      case kRepeat:
+        repeat = parse_long_arg(kCmd, "repeat", optarg, 1, 1000000);
+        break;
+      case kPeriod:
+        period = parse_double_arg(kCmd, "period", optarg, 0, 1e5);
+        break;
+      case kHelp:
+        initialpose_usage(stdout);
+        return PEER_EXIT_OK;
+      default:
+        bad_option(kCmd, argv);
     }
   }
   reject_positional(kCmd, argc, argv, optind);
@@ -280,7 +342,7 @@ int initialpose_main(int argc, char **argv) {
   geometry_msgs_msg_dds__PoseWithCovarianceStamped_ m;
   memset(&m, 0, sizeof m);
   m.header.stamp = stamp_from_seconds(stamp);
-  m.header.frame_id = (char *)frame;
+  m.header.frame_id = (char*)frame;
   m.pose.pose.position.x = x;
   m.pose.pose.position.y = y;
   m.pose.pose.position.z = 0.0;

@@ -14,8 +14,8 @@
 #include "peer_common.h"
 #include "subcommands.h"
 
-_Noreturn void bad_option(const char *cmd, char **argv) {
-  const char *arg = (optind > 0) ? argv[optind - 1] : "?";
+_Noreturn void bad_option(const char* cmd, char** argv) {
+  const char* arg = (optind > 0) ? argv[optind - 1] : "?";
   if (optopt != 0 && arg[0] == '-' && arg[1] == '-' && strchr(arg, '=') == NULL) {
     /* a known option given without its value */
     usage_error(cmd, "option '%s' needs a value", arg);
@@ -24,9 +24,9 @@ _Noreturn void bad_option(const char *cmd, char **argv) {
 }
 
 typedef struct {
-  const char *name;
-  int (*run)(int, char **);
-  void (*usage)(FILE *);
+  const char* name;
+  int (*run)(int, char**);
+  void (*usage)(FILE*);
 } subcommand_t;
 
 static const subcommand_t kSubcommands[] = {
@@ -38,7 +38,7 @@ static const subcommand_t kSubcommands[] = {
 };
 enum { kNumSubcommands = sizeof kSubcommands / sizeof kSubcommands[0] };
 
-static void usage(FILE *f) {
+static void usage(FILE* f) {
   fprintf(f,
           "usage: esfleet-ros2-peer SUBCOMMAND [--help | OPTIONS]\n"
           "An independent ROS 2 (Humble) DDS peer over Cyclone DDS, for testing esfleet's ROS 2\n"
@@ -50,7 +50,7 @@ static void usage(FILE *f) {
   }
 }
 
-int main(int argc, char **argv) {
+int main(int argc, char** argv) {
   if (argc < 2) {
     usage(stderr);
     return PEER_EXIT_USAGE;

@@ -10,10 +10,10 @@
 #include "peer_common.h"
 #include "subcommands.h"
 
-static const char *const kCmd = "scan-writer";
+static const char* const kCmd = "scan-writer";
 static const double kPi = 3.14159265358979323846; /* the double nearest pi, as std::numbers::pi */
 
-void scan_writer_usage(FILE *f) {
+void scan_writer_usage(FILE* f) {
   fprintf(
       f,
       "usage: esfleet-ros2-peer scan-writer --domain D --log FILE --scan-topic T --frame LASER\n"
@@ -30,7 +30,8 @@ void scan_writer_usage(FILE *f) {
       "  --scan-topic T     LaserScan topic (keep-last 100, volatile)\n"
       "  --frame LASER      the scans' header.frame_id\n"
       "  --odom-topic T2    also an Odometry before each scan, same stamp, pose = odometry\n"
-      "  --odom-frame F     Odometry header.frame_id and tf parent (needed with --odom-topic/--tf)\n"
+      "  --odom-frame F     Odometry header.frame_id and tf parent (needed with "
+      "--odom-topic/--tf)\n"
       "  --base-frame B     Odometry child_frame_id and tf child (needed with --odom-topic/--tf)\n"
       "  --tf               also a TFMessage F -> B on rt/tf (reliable, volatile, keep-last 100)\n"
       "  --rate HZ          scans per second (default 0: as fast as possible, 2 ms apart)\n"
@@ -51,13 +52,13 @@ void scan_writer_usage(FILE *f) {
 /* One parsed FLASER line. */
 typedef struct {
   uint32_t n;
-  float *ranges;
+  float* ranges;
   double odom_x, odom_y, odom_theta;
   double ipc_timestamp;
 } flaser_t;
 
-static bool parse_double_token(const char *s, double *out) {
-  char *end = NULL;
+static bool parse_double_token(const char* s, double* out) {
+  char* end = NULL;
   errno = 0;
   const double v = strtod(s, &end);
   if (end == s || *end != '\0' || !isfinite(v)) return false;
@@ -66,10 +67,11 @@ static bool parse_double_token(const char *s, double *out) {
 }
 
 /* Splits line in place; returns the token count (at most max). */
-static size_t tokenize(char *line, char **tokens, size_t max) {
+static size_t tokenize(char* line, char** tokens, size_t max) {
   size_t n = 0;
-  char *save = NULL;
-  for (char *t = strtok_r(line, " \t\r\n", &save); t != NULL; t = strtok_r(NULL, " \t\r\n", &save)) {
+  char* save = NULL;
+  for (char* t = strtok_r(line, " \t\r\n", &save); t != NULL;
+       t = strtok_r(NULL, " \t\r\n", &save)) {
     if (n == max) return max + 1;
     tokens[n++] = t;
   }
@@ -80,14 +82,14 @@ enum { kMaxBeams = 10000, kMaxTokens = kMaxBeams + 11 };
 
 /* Returns 1 for a FLASER scan in *out, 0 for another line, -1 for a malformed FLASER line
  * (with the reason in *why). */
-static int parse_line(char *line, char **tokens, flaser_t *out, const char **why) {
+static int parse_line(char* line, char** tokens, flaser_t* out, const char** why) {
   const size_t nt = tokenize(line, tokens, kMaxTokens);
   if (nt == 0 || strcmp(tokens[0], "FLASER") != 0) return 0;
   if (nt < 2) {
     *why = "no beam count";
     return -1;
   }
-  char *end = NULL;
+  char* end = NULL;
   errno = 0;
   const long n = strtol(tokens[1], &end, 10);
   if (errno != 0 || end == tokens[1] || *end != '\0' || n < 2 || n > kMaxBeams) {
@@ -99,8 +101,8 @@ static int parse_line(char *line, char **tokens, flaser_t *out, const char **why
     return -1;
   }
   for (long i = 0; i < n; ++i) {
-    const char *s = tokens[2 + i];
-    char *e = NULL;
+    const char* s = tokens[2 + i];
+    char* e = NULL;
     const float r = strtof(s, &e);
     if (e == s || *e != '\0' || !isfinite(r) || r < 0.0f) {
       *why = "a range is not a finite number >= 0";
@@ -123,30 +125,44 @@ static int parse_line(char *line, char **tokens, flaser_t *out, const char **why
   return 1;
 }
 
-int scan_writer_main(int argc, char **argv) {
+int scan_writer_main(int argc, char** argv) {
   enum {
-    kDomain = 1000, kLog, kScanTopic, kOdomTopic, kFrame, kOdomFrame, kBaseFrame, kTf, kRate,
-    kMaxScans, kWaitReaders, kWaitTimeout, kBestEffort, kLinger, kRangeMax, kSettle, kHelp
+    kDomain = 1000,
+    kLog,
+    kScanTopic,
+    kOdomTopic,
+    kFrame,
+    kOdomFrame,
+    kBaseFrame,
+    kTf,
+    kRate,
+    kMaxScans,
+    kWaitReaders,
+    kWaitTimeout,
+    kBestEffort,
+    kLinger,
+    kRangeMax,
+    kSettle,
+    kHelp
   };
-  static const struct option opts[] = {
-      {"domain", required_argument, NULL, kDomain},
-      {"log", required_argument, NULL, kLog},
-      {"scan-topic", required_argument, NULL, kScanTopic},
-      {"odom-topic", required_argument, NULL, kOdomTopic},
-      {"frame", required_argument, NULL, kFrame},
-      {"odom-frame", required_argument, NULL, kOdomFrame},
-      {"base-frame", required_argument, NULL, kBaseFrame},
-      {"tf", no_argument, NULL, kTf},
-      {"rate", required_argument, NULL, kRate},
-      {"max-scans", required_argument, NULL, kMaxScans},
-      {"wait-readers", required_argument, NULL, kWaitReaders},
-      {"wait-timeout", required_argument, NULL, kWaitTimeout},
-      {"best-effort", no_argument, NULL, kBestEffort},
-      {"linger", required_argument, NULL, kLinger},
-      {"range-max", required_argument, NULL, kRangeMax},
-      {"settle", required_argument, NULL, kSettle},
-      {"help", no_argument, NULL, kHelp},
-      {NULL, 0, NULL, 0}};
+  static const struct option opts[] = {{"domain", required_argument, NULL, kDomain},
+                                       {"log", required_argument, NULL, kLog},
+                                       {"scan-topic", required_argument, NULL, kScanTopic},
+                                       {"odom-topic", required_argument, NULL, kOdomTopic},
+                                       {"frame", required_argument, NULL, kFrame},
+                                       {"odom-frame", required_argument, NULL, kOdomFrame},
+                                       {"base-frame", required_argument, NULL, kBaseFrame},
+                                       {"tf", no_argument, NULL, kTf},
+                                       {"rate", required_argument, NULL, kRate},
+                                       {"max-scans", required_argument, NULL, kMaxScans},
+                                       {"wait-readers", required_argument, NULL, kWaitReaders},
+                                       {"wait-timeout", required_argument, NULL, kWaitTimeout},
+                                       {"best-effort", no_argument, NULL, kBestEffort},
+                                       {"linger", required_argument, NULL, kLinger},
+                                       {"range-max", required_argument, NULL, kRangeMax},
+                                       {"settle", required_argument, NULL, kSettle},
+                                       {"help", no_argument, NULL, kHelp},
+                                       {NULL, 0, NULL, 0}};
   long domain = -1, max_scans = 0, wait_readers = 1;
   const char *log_path = NULL, *scan_topic = NULL, *odom_topic = NULL, *frame = NULL,
              *odom_frame = NULL, *base_frame = NULL;
@@ -156,28 +172,59 @@ int scan_writer_main(int argc, char **argv) {
   opterr = 0;
   while ((c = getopt_long(argc, argv, "", opts, NULL)) != -1) {
     switch (c) {
-      case kDomain: domain = parse_long_arg(kCmd, "domain", optarg, 0, 232); break;
-      case kLog: log_path = parse_string_arg(kCmd, "log", optarg); break;
-      case kScanTopic: scan_topic = parse_string_arg(kCmd, "scan-topic", optarg); break;
-      case kOdomTopic: odom_topic = parse_string_arg(kCmd, "odom-topic", optarg); break;
-      case kFrame: frame = parse_string_arg(kCmd, "frame", optarg); break;
-      case kOdomFrame: odom_frame = parse_string_arg(kCmd, "odom-frame", optarg); break;
-      case kBaseFrame: base_frame = parse_string_arg(kCmd, "base-frame", optarg); break;
-      case kTf: tf = true; break;
-      case kRate: rate = parse_double_arg(kCmd, "rate", optarg, 0, 1e6); break;
-      case kMaxScans: max_scans = parse_long_arg(kCmd, "max-scans", optarg, 0, 2000000000L); break;
+      case kDomain:
+        domain = parse_long_arg(kCmd, "domain", optarg, 0, 232);
+        break;
+      case kLog:
+        log_path = parse_string_arg(kCmd, "log", optarg);
+        break;
+      case kScanTopic:
+        scan_topic = parse_string_arg(kCmd, "scan-topic", optarg);
+        break;
+      case kOdomTopic:
+        odom_topic = parse_string_arg(kCmd, "odom-topic", optarg);
+        break;
+      case kFrame:
+        frame = parse_string_arg(kCmd, "frame", optarg);
+        break;
+      case kOdomFrame:
+        odom_frame = parse_string_arg(kCmd, "odom-frame", optarg);
+        break;
+      case kBaseFrame:
+        base_frame = parse_string_arg(kCmd, "base-frame", optarg);
+        break;
+      case kTf:
+        tf = true;
+        break;
+      case kRate:
+        rate = parse_double_arg(kCmd, "rate", optarg, 0, 1e6);
+        break;
+      case kMaxScans:
+        max_scans = parse_long_arg(kCmd, "max-scans", optarg, 0, 2000000000L);
+        break;
       case kWaitReaders:
         wait_readers = parse_long_arg(kCmd, "wait-readers", optarg, 0, 1000);
         break;
       case kWaitTimeout:
         wait_timeout = parse_double_arg(kCmd, "wait-timeout", optarg, 0, 1e7);
         break;
-      case kBestEffort: best_effort = true; break;
-      case kLinger: linger = parse_double_arg(kCmd, "linger", optarg, 0, 1e7); break;
-      case kRangeMax: range_max = parse_double_arg(kCmd, "range-max", optarg, 0, 1e30); break;
-      case kSettle: settle = parse_double_arg(kCmd, "settle", optarg, 0, 1e7); break;
-      case kHelp: scan_writer_usage(stdout); return PEER_EXIT_OK;
-      default: bad_option(kCmd, argv);
+      case kBestEffort:
+        best_effort = true;
+        break;
+      case kLinger:
+        linger = parse_double_arg(kCmd, "linger", optarg, 0, 1e7);
+        break;
+      case kRangeMax:
+        range_max = parse_double_arg(kCmd, "range-max", optarg, 0, 1e30);
+        break;
+      case kSettle:
+        settle = parse_double_arg(kCmd, "settle", optarg, 0, 1e7);
+        break;
+      case kHelp:
+        scan_writer_usage(stdout);
+        return PEER_EXIT_OK;
+      default:
+        bad_option(kCmd, argv);
     }
   }
   reject_positional(kCmd, argc, argv, optind);
@@ -189,7 +236,7 @@ int scan_writer_main(int argc, char **argv) {
     require_arg(kCmd, "odom-frame (with --odom-topic or --tf)", odom_frame != NULL);
     require_arg(kCmd, "base-frame (with --odom-topic or --tf)", base_frame != NULL);
   }
-  FILE *log = fopen(log_path, "r");
+  FILE* log = fopen(log_path, "r");
   if (log == NULL) usage_error(kCmd, "--log: cannot open '%s': %s", log_path, strerror(errno));
 
   install_signal_handlers();
@@ -222,13 +269,13 @@ int scan_writer_main(int argc, char **argv) {
   if (tf_w > 0) wait_for_readers(tf_w, 1, 2.0);
   sleep_seconds(settle);
 
-  char **tokens = malloc(sizeof(char *) * (kMaxTokens + 1));
-  float *ranges = malloc(sizeof(float) * kMaxBeams);
+  char** tokens = malloc(sizeof(char*) * (kMaxTokens + 1));
+  float* ranges = malloc(sizeof(float) * kMaxBeams);
   if (tokens == NULL || ranges == NULL) {
     fprintf(stderr, "esfleet-ros2-peer scan-writer: out of memory\n");
     return PEER_EXIT_FAIL;
   }
-  char *line = NULL;
+  char* line = NULL;
   size_t cap = 0;
   long line_no = 0, scans = 0, odoms = 0, tfs = 0, skipped = 0;
   bool failed = false;
@@ -237,12 +284,12 @@ int scan_writer_main(int argc, char **argv) {
     ++line_no;
     flaser_t fl;
     fl.ranges = ranges;
-    const char *why = "";
+    const char* why = "";
     const int kind = parse_line(line, tokens, &fl, &why);
     if (kind == 0) continue;
     if (kind < 0) {
-      fprintf(stderr, "esfleet-ros2-peer scan-writer: %s:%ld: FLASER line skipped: %s\n",
-              log_path, line_no, why);
+      fprintf(stderr, "esfleet-ros2-peer scan-writer: %s:%ld: FLASER line skipped: %s\n", log_path,
+              line_no, why);
       ++skipped;
       continue;
     }
@@ -262,8 +309,8 @@ int scan_writer_main(int argc, char **argv) {
       nav_msgs_msg_dds__Odometry_ odom;
       memset(&odom, 0, sizeof odom);
       odom.header.stamp = stamp;
-      odom.header.frame_id = (char *)odom_frame;
-      odom.child_frame_id = (char *)base_frame;
+      odom.header.frame_id = (char*)odom_frame;
+      odom.child_frame_id = (char*)base_frame;
       odom.pose.pose = pose;
       if (!write_sample(odom_w, &odom, odom_topic)) {
         failed = true;
@@ -275,8 +322,8 @@ int scan_writer_main(int argc, char **argv) {
       geometry_msgs_msg_dds__TransformStamped_ ts;
       memset(&ts, 0, sizeof ts);
       ts.header.stamp = stamp;
-      ts.header.frame_id = (char *)odom_frame;
-      ts.child_frame_id = (char *)base_frame;
+      ts.header.frame_id = (char*)odom_frame;
+      ts.child_frame_id = (char*)base_frame;
       ts.transform.translation.x = pose.position.x;
       ts.transform.translation.y = pose.position.y;
       ts.transform.translation.z = 0.0;
@@ -300,7 +347,7 @@ int scan_writer_main(int argc, char **argv) {
     sensor_msgs_msg_dds__LaserScan_ scan;
     memset(&scan, 0, sizeof scan);
     scan.header.stamp = stamp;
-    scan.header.frame_id = (char *)frame;
+    scan.header.frame_id = (char*)frame;
     scan.angle_min = (float)angle_min;
     scan.angle_increment = (float)increment;
     scan.angle_max = (float)(angle_min + (beams - 1.0) * increment);
@@ -331,9 +378,10 @@ int scan_writer_main(int argc, char **argv) {
     fprintf(stderr, "esfleet-ros2-peer scan-writer: %s: no valid FLASER line\n", log_path);
   }
   if (!failed && !interrupted) sleep_seconds(linger); /* retransmissions go on meanwhile */
-  printf("{\"scans_published\":%ld,\"odom_published\":%ld,\"tf_published\":%ld,"
-         "\"flaser_skipped\":%ld}\n",
-         scans, odoms, tfs, skipped);
+  printf(
+      "{\"scans_published\":%ld,\"odom_published\":%ld,\"tf_published\":%ld,"
+      "\"flaser_skipped\":%ld}\n",
+      scans, odoms, tfs, skipped);
   fflush(stdout);
   dds_delete(participant);
   return (failed || interrupted || scans == 0) ? PEER_EXIT_FAIL : PEER_EXIT_OK;
