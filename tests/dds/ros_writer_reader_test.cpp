@@ -13,6 +13,7 @@
 #include <thread>
 #include <vector>
 
+#include "dds_test_support.hpp"
 #include "esfleet/dds/node.hpp"
 #include "esfleet/dds/ros.hpp"
 #include "esfleet/dds/ros_msg.hpp"
@@ -22,16 +23,9 @@ namespace {
 
 using std::chrono::milliseconds;
 
-const std::string kShm = std::string(ESFLEET_FASTDDS_PROFILE_DIR) + "/localhost-shm.xml";
+const std::string& kShm = esfleet::test::kShmProfile;
 
-bool wait_until(const std::function<bool()>& done, milliseconds timeout = milliseconds(5000)) {
-  const auto deadline = std::chrono::steady_clock::now() + timeout;
-  while (!done()) {
-    if (std::chrono::steady_clock::now() > deadline) return false;
-    std::this_thread::sleep_for(milliseconds(5));
-  }
-  return true;
-}
+using esfleet::test::wait_until;
 
 template <class Msg>
 struct Inbox {

@@ -17,6 +17,7 @@
 
 #include <gtest/gtest.h>
 
+#include "dds_test_support.hpp"
 #include "esfleet/dds/node.hpp"
 #include "esfleet/dds/reader.hpp"
 #include "esfleet/dds/writer.hpp"
@@ -27,16 +28,9 @@ using namespace esfleet::dds;  // NOLINT: test brevity
 namespace msg = esfleet::msg;
 using std::chrono::milliseconds;
 
-const std::string kShm = std::string(ESFLEET_FASTDDS_PROFILE_DIR) + "/localhost-shm.xml";
+const std::string& kShm = esfleet::test::kShmProfile;
 
-bool wait_until(const std::function<bool()>& done, milliseconds timeout = milliseconds(5000)) {
-  const auto deadline = std::chrono::steady_clock::now() + timeout;
-  while (!done()) {
-    if (std::chrono::steady_clock::now() > deadline) return false;
-    std::this_thread::sleep_for(milliseconds(5));
-  }
-  return true;
-}
+using esfleet::test::wait_until;
 
 std::int64_t now_ns() {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(

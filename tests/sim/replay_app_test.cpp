@@ -15,6 +15,7 @@
 #include <thread>
 #include <vector>
 
+#include "../dds/dds_test_support.hpp"
 #include "app/program.hpp"
 #include "esfleet/dds/reader.hpp"
 #include "esfleet/dds/ros.hpp"
@@ -24,7 +25,7 @@ namespace esfleet::sim {
 namespace {
 
 const std::string kLog = std::string(ESFLEET_TEST_DATA_DIR) + "/carmen/mit-csail-excerpt.clf";
-const std::string kShm = std::string(ESFLEET_FASTDDS_PROFILE_DIR) + "/localhost-shm.xml";
+const std::string& kShm = esfleet::test::kShmProfile;
 
 ReplayOptions options(int domain) {
   ReplayOptions o;
@@ -124,12 +125,7 @@ struct Inbox {
   }
 };
 
-bool wait_until(const std::function<bool()>& done) {
-  for (int i = 0; i < 100 && !done(); ++i) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-  }
-  return done();
-}
+using esfleet::test::wait_until;
 
 TEST(ReplayApp, RosModePublishesScansOdometryAndTfWithTheLogsStamps) {
   dds::Node node({188, kShm, "ros_peer"});
