@@ -6,6 +6,7 @@
 #include <iterator>
 #include <optional>
 #include <stdexcept>
+#include <string>
 #include <string_view>
 #include <tuple>
 #include <utility>
@@ -20,13 +21,14 @@ using detail::read_number_rows;
 
 constexpr std::size_t kFields = 8;  // t1 t2 x y z roll pitch yaw
 
-/// Index of the pose in `sorted` (ascending stamps) nearest to `t`, if within `tolerance`.
-/// A tie goes to the earlier pose. A non-finite `t` never matches.
-std::optional<std::size_t> nearest(const std::vector<TimedPose>& sorted, double t,
-                                   double tolerance) {
+/// Index of the entry in `sorted` (ascending `stamp` members: TimedPose, IndexedStamp) nearest
+/// to `t`, if within `tolerance`. A tie goes to the earlier entry. A non-finite `t` never
+/// matches.
+template <typename Stamped>
+std::optional<std::size_t> nearest(const std::vector<Stamped>& sorted, double t, double tolerance) {
   if (sorted.empty() || !std::isfinite(t)) return std::nullopt;
   const auto after = std::lower_bound(sorted.begin(), sorted.end(), t,
-                                      [](const TimedPose& p, double s) { return p.stamp < s; });
+                                      [](const Stamped& p, double s) { return p.stamp < s; });
   auto best = after;
   if (after == sorted.end() ||
       (after != sorted.begin() && t - std::prev(after)->stamp <= after->stamp - t)) {
@@ -48,6 +50,25 @@ std::pair<double, double> mean_and_std(const std::vector<double>& values) {
   return {mean, std::sqrt(squares / n)};
 }
 
+void check_options(const RelationsOptions& options) {
+  if (!std::isfinite(options.time_offset)) {
+    throw std::invalid_argument("RelationsOptions::time_offset must be finite");
+  }
+  if (!std::isfinite(options.tolerance) || options.tolerance < 0.0) {
+    throw std::invalid_argument("RelationsOptions::tolerance must be finite and >= 0");
+  }
+}
+
+/// A scan's stamp and its index in the caller's (unsorted) list.
+struct IndexedStamp {
+  double stamp = 0.0;
+  std::size_t index = 0;
+};
+
+bool is_finite(const Pose2& p) {
+  return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.theta);
+}
+
 }  // namespace
 
 std::vector<Relation> read_relations(const std::string& path) {
@@ -62,12 +83,7 @@ std::vector<Relation> read_relations(const std::string& path) {
 RelationsResult evaluate_relations(const std::vector<TimedPose>& trajectory,
                                    const std::vector<Relation>& relations,
                                    const RelationsOptions& options) {
-  if (!std::isfinite(options.time_offset)) {
-    throw std::invalid_argument("RelationsOptions::time_offset must be finite");
-  }
-  if (!std::isfinite(options.tolerance) || options.tolerance < 0.0) {
-    throw std::invalid_argument("RelationsOptions::tolerance must be finite and >= 0");
-  }
+  check_options(options);
   for (std::size_t i = 0; i < trajectory.size(); ++i) {
     if (!std::isfinite(trajectory[i].stamp)) {
       throw std::invalid_argument("trajectory pose " + std::to_string(i) +
@@ -104,6 +120,78 @@ RelationsResult evaluate_relations(const std::vector<TimedPose>& trajectory,
   const auto [rot_mean, rot_std] = mean_and_std(rot_errors);
   result.rot_mean_deg = rad_to_deg(rot_mean);
   result.rot_std_deg = rad_to_deg(rot_std);
+  return result;
+}
+
+std::vector<std::optional<RelationEnds>> match_relation_ends(const std::vector<double>& stamps,
+                                                             const std::vector<Relation>& relations,
+                                                             const RelationsOptions& options) {
+  check_options(options);
+  std::vector<IndexedStamp> sorted;
+  sorted.reserve(stamps.size());
+  for (std::size_t i = 0; i < stamps.size(); ++i) {
+    if (!std::isfinite(stamps[i])) {
+      throw std::invalid_argument("scan " + std::to_string(i) + " has a non-finite stamp");
+    }
+    sorted.push_back({stamps[i], i});
+  }
+  std::stable_sort(sorted.begin(), sorted.end(),
+                   [](const IndexedStamp& a, const IndexedStamp& b) { return a.stamp < b.stamp; });
+  std::vector<std::optional<RelationEnds>> ends;
+  ends.reserve(relations.size());
+  for (const Relation& r : relations) {
+    const auto i1 = nearest(sorted, r.t1 - options.time_offset, options.tolerance);
+    const auto i2 = nearest(sorted, r.t2 - options.time_offset, options.tolerance);
+    if (!i1 || !i2) {
+      ends.emplace_back();
+      continue;
+    }
+    ends.push_back(RelationEnds{sorted[*i1].index, sorted[*i2].index});
+  }
+  return ends;
+}
+
+DerivedRelationsResult evaluate_derived_relations(const std::vector<Pose2>& reference,
+                                                  const std::vector<Pose2>& estimate,
+                                                  const std::vector<std::size_t>& gaps) {
+  if (reference.size() != estimate.size()) {
+    throw std::invalid_argument("derived relations: " + std::to_string(reference.size()) +
+                                " reference poses but " + std::to_string(estimate.size()) +
+                                " estimated poses");
+  }
+  for (std::size_t i = 0; i < reference.size(); ++i) {
+    if (!is_finite(reference[i]) || !is_finite(estimate[i])) {
+      throw std::invalid_argument("derived relations: pose " + std::to_string(i) +
+                                  " is not finite");
+    }
+  }
+  DerivedRelationsResult result;
+  std::vector<double> all_trans, all_rot;
+  for (const std::size_t gap : gaps) {
+    if (gap == 0) throw std::invalid_argument("derived relations: a gap must be >= 1");
+    std::vector<double> trans, rot;
+    for (std::size_t i = 0; i + gap < reference.size(); ++i) {
+      const Pose2 rel = reference[i + gap].relative_to(reference[i]);
+      const Pose2 est = estimate[i + gap].relative_to(estimate[i]);
+      const Pose2 err = est.relative_to(rel);  // inv(rel)·est
+      trans.push_back(std::hypot(err.x, err.y));
+      rot.push_back(std::abs(normalize_angle(err.theta)));
+    }
+    DerivedGap g;
+    g.gap = gap;
+    g.count = trans.size();
+    g.trans_mean = mean_and_std(trans).first;
+    g.rot_mean_deg = rad_to_deg(mean_and_std(rot).first);
+    result.gaps.push_back(g);
+    all_trans.insert(all_trans.end(), trans.begin(), trans.end());
+    all_rot.insert(all_rot.end(), rot.begin(), rot.end());
+  }
+  result.count = all_trans.size();
+  std::tie(result.trans_mean, result.trans_std) = mean_and_std(all_trans);
+  const auto [rot_mean, rot_std] = mean_and_std(all_rot);
+  result.rot_mean_deg = rad_to_deg(rot_mean);
+  result.rot_std_deg = rad_to_deg(rot_std);
+  for (double t : all_trans) result.trans_max = std::max(result.trans_max, t);
   return result;
 }
 

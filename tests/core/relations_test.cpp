@@ -362,5 +362,128 @@ TEST_F(ReadRelationsTest, ReadRelationsFeedTheMetric) {
   EXPECT_NEAR(r.rot_mean_deg, 0.0, 1e-9);
 }
 
+// --- match_relation_ends ---
+
+TEST(MatchRelationEnds, GivesTheIndicesOfTheNearestStampsInTheCallersOrder) {
+  // Unsorted stamps: indices refer to the list as given.
+  const std::vector<double> stamps = {3.0, 1.0, 2.0, 0.0};
+  const std::vector<Relation> relations = {{1.04, 2.96, {}}, {0.0, 2.0, {}}};
+  const auto ends = match_relation_ends(stamps, relations);
+  ASSERT_EQ(ends.size(), 2u);
+  ASSERT_TRUE(ends[0]);
+  EXPECT_EQ(ends[0]->first, 1u);
+  EXPECT_EQ(ends[0]->second, 0u);
+  ASSERT_TRUE(ends[1]);
+  EXPECT_EQ(ends[1]->first, 3u);
+  EXPECT_EQ(ends[1]->second, 2u);
+}
+
+TEST(MatchRelationEnds, AnEndOutsideTheToleranceMatchesNothing) {
+  const std::vector<double> stamps = {0.0, 1.0};
+  RelationsOptions options;
+  options.time_offset = 10.0;  // relation stamp = scan stamp + 10
+  const std::vector<Relation> relations = {{10.0, 11.14, {}}, {10.0, 11.16, {}}};
+  const auto ends = match_relation_ends(stamps, relations, options);
+  ASSERT_TRUE(ends[0]);  // 0.14 s off: within the 0.15 s tolerance
+  EXPECT_EQ(ends[0]->second, 1u);
+  EXPECT_FALSE(ends[1]);
+  EXPECT_THROW(match_relation_ends({std::nan("")}, relations), std::invalid_argument);
+}
+
+TEST(MatchRelationEnds, AgreesWithEvaluateRelations) {
+  // The ends it gives, used directly, give the score evaluate_relations computes.
+  const auto truth = random_walk(200, 3);
+  auto relations = relations_from(truth, 7);
+  auto estimate = truth;
+  for (std::size_t i = 0; i < estimate.size(); ++i) {
+    const double t = static_cast<double>(i);
+    estimate[i].pose = estimate[i].pose.compose({0.01 * std::sin(0.3 * t), 0.0, 0.002 * t});
+  }
+  std::vector<double> stamps;
+  for (const auto& p : estimate) stamps.push_back(p.stamp);
+  const auto ends = match_relation_ends(stamps, relations);
+  double sum = 0.0;
+  for (std::size_t r = 0; r < relations.size(); ++r) {
+    ASSERT_TRUE(ends[r]);
+    const Pose2 est = estimate[ends[r]->second].pose.relative_to(estimate[ends[r]->first].pose);
+    const Pose2 err = est.relative_to(relations[r].rel);
+    sum += std::hypot(err.x, err.y);
+  }
+  const auto expected = evaluate_relations(estimate, relations);
+  EXPECT_NEAR(sum / static_cast<double>(relations.size()), expected.trans_mean, 1e-12);
+}
+
+// --- evaluate_derived_relations ---
+
+std::vector<Pose2> poses_of(const std::vector<TimedPose>& path) {
+  std::vector<Pose2> out;
+  for (const auto& p : path) out.push_back(p.pose);
+  return out;
+}
+
+TEST(DerivedRelations, PerfectEstimateInAnyFrameHasZeroError) {
+  const auto reference = poses_of(random_walk(150, 4));
+  std::vector<Pose2> estimate;
+  const Pose2 frame{-4.0, 7.0, 2.5};  // the SLAM's frame is arbitrary
+  for (const Pose2& p : reference) estimate.push_back(frame.compose(p));
+  const auto r = evaluate_derived_relations(reference, estimate, {1, 5, 20, 100});
+  EXPECT_EQ(r.count, 149u + 145u + 130u + 50u);
+  EXPECT_NEAR(r.trans_mean, 0.0, 1e-9);
+  EXPECT_NEAR(r.rot_mean_deg, 0.0, 1e-9);
+  ASSERT_EQ(r.gaps.size(), 4u);
+  EXPECT_EQ(r.gaps[0].gap, 1u);
+  EXPECT_EQ(r.gaps[0].count, 149u);
+  EXPECT_EQ(r.gaps[3].gap, 100u);
+  EXPECT_EQ(r.gaps[3].count, 50u);
+}
+
+TEST(DerivedRelations, ScaledPathGivesTheScaleErrorPerGap) {
+  // Reference at x = 0..4 along +x; the estimate 10 % longer: a gap of g metres is off by 0.1 g.
+  std::vector<Pose2> reference, estimate;
+  for (int i = 0; i < 5; ++i) {
+    reference.push_back({1.0 * i, 0.0, 0.0});
+    estimate.push_back({1.1 * i, 0.0, 0.0});
+  }
+  const auto r = evaluate_derived_relations(reference, estimate, {1, 2, 10});
+  ASSERT_EQ(r.gaps.size(), 3u);
+  EXPECT_EQ(r.gaps[0].count, 4u);
+  EXPECT_NEAR(r.gaps[0].trans_mean, 0.1, 1e-12);
+  EXPECT_EQ(r.gaps[1].count, 3u);
+  EXPECT_NEAR(r.gaps[1].trans_mean, 0.2, 1e-12);
+  EXPECT_EQ(r.gaps[2].count, 0u);  // longer than the path: no relation, not an error
+  EXPECT_EQ(r.gaps[2].trans_mean, 0.0);
+  EXPECT_EQ(r.count, 7u);
+  EXPECT_NEAR(r.trans_mean, (4 * 0.1 + 3 * 0.2) / 7.0, 1e-12);
+  EXPECT_NEAR(r.trans_max, 0.2, 1e-12);
+  EXPECT_NEAR(r.rot_mean_deg, 0.0, 1e-12);
+}
+
+TEST(DerivedRelations, OneTurnedPoseGivesARotationAndAChordError) {
+  // Reference x = 0..3 heading 0; the estimate's pose 2 is turned by a = 0.1 rad. Gap 1:
+  // 0->1 exact; 1->2 rotation a, no translation; 2->3 rotation a and translation 2 sin(a/2)
+  // (the step seen from the turned pose, a chord of the unit circle).
+  const double a = 0.1;
+  const std::vector<Pose2> reference = {{0, 0, 0}, {1, 0, 0}, {2, 0, 0}, {3, 0, 0}};
+  const std::vector<Pose2> estimate = {{0, 0, 0}, {1, 0, 0}, {2, 0, a}, {3, 0, 0}};
+  const auto r = evaluate_derived_relations(reference, estimate, {1});
+  EXPECT_EQ(r.count, 3u);
+  EXPECT_NEAR(r.trans_mean, 2.0 * std::sin(a / 2.0) / 3.0, 1e-12);
+  EXPECT_NEAR(r.trans_max, 2.0 * std::sin(a / 2.0), 1e-12);
+  EXPECT_NEAR(r.rot_mean_deg, rad_to_deg(2.0 * a / 3.0), 1e-9);
+  EXPECT_NEAR(r.gaps[0].rot_mean_deg, r.rot_mean_deg, 1e-12);
+}
+
+TEST(DerivedRelations, RejectsMismatchedInputsAndAZeroGap) {
+  const std::vector<Pose2> two = {{0, 0, 0}, {1, 0, 0}};
+  const std::vector<Pose2> three = {{0, 0, 0}, {1, 0, 0}, {2, 0, 0}};
+  EXPECT_THROW(evaluate_derived_relations(two, three, {1}), std::invalid_argument);
+  EXPECT_THROW(evaluate_derived_relations(two, two, {0}), std::invalid_argument);
+  const std::vector<Pose2> bad = {{0, 0, 0}, {std::nan(""), 0, 0}};
+  EXPECT_THROW(evaluate_derived_relations(two, bad, {1}), std::invalid_argument);
+  const auto empty = evaluate_derived_relations({}, {}, {1, 5});
+  EXPECT_EQ(empty.count, 0u);
+  EXPECT_EQ(empty.trans_mean, 0.0);
+}
+
 }  // namespace
 }  // namespace esfleet

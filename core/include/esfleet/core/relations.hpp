@@ -8,6 +8,7 @@
 // estimate and weighs local and global errors by how the relations were chosen.
 
 #include <cstddef>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -62,5 +63,49 @@ struct RelationsResult {
 RelationsResult evaluate_relations(const std::vector<TimedPose>& trajectory,
                                    const std::vector<Relation>& relations,
                                    const RelationsOptions& options = {});
+
+/// The two scans a relation's ends fall on: indices into the stamps given to
+/// match_relation_ends.
+struct RelationEnds {
+  std::size_t first = 0;   ///< scan of t1
+  std::size_t second = 0;  ///< scan of t2
+};
+
+/// For each relation, the scans its ends match as evaluate_relations matches them: the stamp
+/// nearest to t - time_offset (a tie goes to the earlier scan), if within the tolerance;
+/// std::nullopt when either end matches none. `stamps` need not be sorted; indices refer to it.
+/// Matching against a whole log and then keeping the relations whose both ends are kept scans
+/// scores a subsampled run honestly: an end whose scan was dropped is not moved to a neighbour.
+/// Throws std::invalid_argument as evaluate_relations does (options, non-finite stamp).
+std::vector<std::optional<RelationEnds>> match_relation_ends(const std::vector<double>& stamps,
+                                                             const std::vector<Relation>& relations,
+                                                             const RelationsOptions& options = {});
+
+/// Relations derived from a reference path (e.g. GMapping-corrected poses) instead of hand-made
+/// ones: for every gap g and every i with i + g < n, rel = reference[i+g] seen from
+/// reference[i], est = estimate[i+g] seen from estimate[i], err = inv(rel)·est; translation
+/// error hypot(err.x, err.y) (m), rotation error |err.theta| (deg), as in evaluate_relations.
+struct DerivedGap {
+  std::size_t gap = 0;
+  std::size_t count = 0;    ///< relations of this gap: max(0, n - gap)
+  double trans_mean = 0;    ///< metres (0 when count = 0)
+  double rot_mean_deg = 0;  ///< degrees
+};
+
+struct DerivedRelationsResult {
+  std::size_t count = 0;                     ///< relations of all gaps together
+  double trans_mean = 0, trans_std = 0;      ///< metres, over all gaps together
+  double rot_mean_deg = 0, rot_std_deg = 0;  ///< degrees
+  double trans_max = 0;                      ///< metres
+  std::vector<DerivedGap> gaps;              ///< one per gap asked for, in the order given
+};
+
+/// Scores `estimate` against relations derived from `reference` (both one pose per scan, the
+/// same scans in the same order) for each gap in `gaps` (in scans). Means and population
+/// standard deviations over the relations; zeros where there are none. Throws
+/// std::invalid_argument if the sizes differ, a gap is 0, or a pose is not finite.
+DerivedRelationsResult evaluate_derived_relations(const std::vector<Pose2>& reference,
+                                                  const std::vector<Pose2>& estimate,
+                                                  const std::vector<std::size_t>& gaps);
 
 }  // namespace esfleet
