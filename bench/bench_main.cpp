@@ -7,7 +7,10 @@
 //             scans end in it: on occupied, free or unknown cells.
 //   occupancy-truth  a simulated run's map against the world's true walls: precision, recall.
 //   noisy-odometry  a log rewritten with noisy wheel odometry (seeded), for the SLAM to use.
+//   generalise  the SLAM on sparse scans: the CSAIL key-scan log, CSAIL and fr079 subsampled,
+//             laser only and with noisy odometry, scored on relations over seeds.
 #include "app/program.hpp"
+#include "generalise.hpp"
 #include "localise_bench.hpp"
 #include "noisy_odometry.hpp"
 #include "occupancy_bench.hpp"
@@ -53,6 +56,14 @@ int main(int argc, char** argv) {
       "rewrite a CARMEN log's odometry as noisy wheel odometry (seeded; drift grows with the "
       "distance driven and the angle turned), writing OUT_DIR/ROBOT_ID.log and .truth");
   bench::add_noisy_odometry_options(*noisy_cmd, noisy);
+  bench::GeneraliseOptions generalise;
+  CLI::App* generalise_cmd = cli.add_subcommand(
+      "generalise",
+      "the SLAM on sparse scans: the MIT CSAIL key-scan log (406 scans), CSAIL and fr079 kept "
+      "every k-th scan, laser only and with noisy odometry, over seeds; scored on the relations "
+      "whose both ends are kept and on relations derived from the reference poses (evaluation "
+      "only); one JSON file and a markdown table");
+  bench::add_generalise_options(*generalise_cmd, generalise);
   if (auto code = program.parse(argc, argv)) return *code;
   return program.run([&] {
     if (slam_cmd->parsed()) return bench::run_slam_bench(slam);
@@ -60,6 +71,7 @@ int main(int argc, char** argv) {
     if (occupancy_cmd->parsed()) return bench::run_occupancy_bench(occupancy);
     if (truth_cmd->parsed()) return bench::run_occupancy_truth(truth);
     if (noisy_cmd->parsed()) return bench::run_noisy_odometry(noisy);
+    if (generalise_cmd->parsed()) return bench::run_generalise(generalise);
     return static_cast<int>(app::kExitUsage);  // require_subcommand(1): not reached
   });
 }

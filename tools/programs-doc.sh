@@ -65,7 +65,8 @@ program, what it is for and which codes it uses, then its `--help` as it prints 
 - [esfleet-fleet](#esfleet-fleet)
 - [esfleet-sim](#esfleet-sim)
 - [esfleet-replay](#esfleet-replay)
-- [esfleet-bench](#esfleet-bench) (`slam`, `localise`, `occupancy`, `occupancy-truth`)
+- [esfleet-bench](#esfleet-bench) (`slam`, `localise`, `occupancy`, `occupancy-truth`,
+  `generalise`)
 - [esfleet-eval](#esfleet-eval)
 - [esfleet-map-png](#esfleet-map-png)
 
@@ -153,9 +154,12 @@ scan (the paper's configuration and the default pipeline, in one process); `loca
 follower global localisation, tracking and kidnap recovery in the leader's map of a log;
 `occupancy` reads a saved `map.yaml` as `map_server` does and counts where the leader's own scan
 end points land in it (occupied, free, unknown); `occupancy-truth` scores a simulated run's map
-against the world's true walls (precision, recall). Figures on stdout and in a JSON file.
+against the world's true walls (precision, recall); `generalise` runs the SLAM on sparse scans
+(the CSAIL key-scan log, CSAIL and fr079 kept every k-th scan), laser only and with noisy
+odometry, over seeds, and scores it on relations. Figures on stdout and in a JSON file.
 Exit codes: 0 done; 1 the results (or the trace) could not be written, or the relations file
-could not be read; 2 bad usage or an unreadable input (log, trajectory, map, world).
+could not be read, or a `generalise` run failed (its seed on stderr); 2 bad usage or an unreadable
+input (log, trajectory, map, world).
 
 TEXT
 help_block esfleet-bench
@@ -183,6 +187,12 @@ cat <<'TEXT'
 
 TEXT
 help_block esfleet-bench occupancy-truth
+cat <<'TEXT'
+
+### esfleet-bench generalise
+
+TEXT
+help_block esfleet-bench generalise
 cat <<'TEXT'
 
 ## esfleet-eval

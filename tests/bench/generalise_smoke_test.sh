@@ -1,0 +1,88 @@
+#!/usr/bin/env bash
+# bench.generalise_smoke: a short esfleet-bench generalise (the CSAIL key-scan log and CSAIL
+# every 3rd scan, 60 scans each, laser only and noisy odometry, seed 1) completes, prints the
+# table and writes JSON with the expected fields and counts; the same runs with --jobs 2 give the
+# same scores.
+#
+# usage: generalise_smoke_test.sh BIN_DIR DATA_DIR
+set -euo pipefail
+bin=$1
+data=$2
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+
+run() {  # run JOBS NAME
+  "$bin/esfleet-bench" generalise --data-dir "$data" --logs csail-keys,csail --ks 3 \
+    --modes laser,odom --seeds 1 --max-scans 60 --jobs "$1" --out "$work/$2.json" \
+    >"$work/$2.md" 2>"$work/$2.err" || {
+    cat "$work/$2.err"
+    echo "FAIL: esfleet-bench generalise --jobs $1 exited with an error"
+    exit 1
+  }
+}
+run 1 one
+run 2 two
+cat "$work/one.md"
+
+grep -q '^| log | k | scans | laser only: derived (m) |' "$work/one.md" ||
+  { echo "FAIL: no table header on stdout"; exit 1; }
+grep -q '^| csail-keys | 1 | 60 |' "$work/one.md" || { echo "FAIL: no csail-keys row"; exit 1; }
+grep -q '^| csail | 3 | 60 |' "$work/one.md" || { echo "FAIL: no csail k=3 row"; exit 1; }
+[ "$(grep -c '^\[[0-9]*/4\] ' "$work/one.err")" -eq 4 ] ||
+  { cat "$work/one.err"; echo "FAIL: expected 4 progress lines on stderr"; exit 1; }
+
+python3 - "$work/one.json" "$work/two.json" <<'PY'
+import json, math, sys
+
+one = json.load(open(sys.argv[1]))
+two = json.load(open(sys.argv[2]))
+errors = []
+
+def check(cond, what):
+    if not cond:
+        errors.append(what)
+
+runs = one["runs"]
+check(len(runs) == 4, f"{len(runs)} runs, expected 4")
+for r in runs:
+    name = f'{r["log"]} k={r["k"]} {r["mode"]} seed {r["seed"]}'
+    check(r["scans"] == 60, f"{name}: scans {r['scans']}, expected 60")
+    d, rel = r["derived"], r["relations"]
+    n = d["reference_scans"]
+    gaps = {g["gap"]: g["count"] for g in d["gaps"]}
+    check(sorted(gaps) == [1, 5, 20, 100], f"{name}: gaps {sorted(gaps)}")
+    for g, c in gaps.items():
+        check(c == max(0, n - g), f"{name}: gap {g} has {c} relations, expected {max(0, n - g)}")
+    check(d["count"] == sum(gaps.values()), f"{name}: derived count {d['count']}")
+    check(n > 1, f"{name}: only {n} kept scans with a reference pose")
+    check(isinstance(d["trans_mean"], float) and math.isfinite(d["trans_mean"]),
+          f"{name}: derived trans_mean {d['trans_mean']}")
+    check(rel["total"] == 1172, f"{name}: relations total {rel['total']}, expected 1172")
+    check(0 <= rel["used"] <= rel["total"], f"{name}: relations used {rel['used']}")
+    check(r["timing"]["run_s"] > 0 and r["timing"]["scan_ms_median"] > 0, f"{name}: timing")
+    check(r["key_scans"] >= 1, f"{name}: key scans {r['key_scans']}")
+    if r["log"] == "csail-keys":
+        check(n == 60, f"{name}: {n} reference scans, expected all 60")
+summary = one["summary"]
+check(len(summary) == 4, f"{len(summary)} summary rows, expected 4")
+for s in summary:
+    m = s["derived_trans_mean"]
+    check(m is not None and m["min"] <= m["median"] <= m["max"],
+          f'summary {s["log"]} k={s["k"]} {s["mode"]}: {m}')
+
+# --jobs must not change a score: everything but the wall times is equal.
+def scores(doc):
+    out = []
+    for r in doc["runs"]:
+        r = dict(r)
+        r.pop("timing")
+        out.append(r)
+    return out
+check(scores(one) == scores(two), "--jobs 2 gave other scores than --jobs 1")
+check(one["summary"] == two["summary"], "--jobs 2 gave another summary than --jobs 1")
+
+if errors:
+    print("FAIL:\n  " + "\n  ".join(errors))
+    sys.exit(1)
+print("generalise JSON: 4 runs, counts and fields as expected, --jobs 1 and 2 agree")
+PY
