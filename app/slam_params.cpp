@@ -80,6 +80,34 @@ void add_slam_params(ParamTable& t, SlamConfig* s, CarmenReaderOptions* r) {
                "second-best distinct score / best score a loop match may have");
   t.add_double("loop_max_chi2", &s->loop.max_chi2,
                "graph cost increase above which a loop closure is dropped");
+  t.add_switch("recovery", &s->recovery.enabled,
+               "a weak match triggers a wide correlative search (coarse to fine, the ES to "
+               "finish), and a scan that still agrees poorly is not written into the map");
+  t.add_double("recovery_window_xy", &s->recovery.window_xy, "recovery search window +-, metres");
+  t.add_double("recovery_window_theta", &s->recovery.window_theta_deg,
+               "recovery search window +-, degrees");
+  t.add_double("recovery_weak_agreement", &s->recovery.weak_agreement,
+               "a match is weak below this share of end points on occupied cells (of those on "
+               "known cells)");
+  t.add_double("recovery_min_gain", &s->recovery.min_gain,
+               "a weak tracked pose gives way to the recovered one when its consistency with "
+               "the map is higher by this plus recovery_gain_per_metre per metre between them");
+  t.add_double("recovery_gain_per_metre", &s->recovery.gain_per_metre, "... see recovery_min_gain");
+  t.add_double("recovery_min_gain_fair", &s->recovery.min_gain_fair,
+               "as recovery_min_gain for a tracked pose that was not weak (searched because of "
+               "a large motion)");
+  t.add_double("recovery_gain_per_metre_fair", &s->recovery.gain_per_metre_fair,
+               "... see recovery_min_gain_fair");
+  t.add_double("recovery_window_min_scale", &s->recovery.window_min_scale,
+               "the recovery window shrinks with the largest of the last 5 inter-scan motions "
+               "(1 m or 45 degrees = the whole window), to at least this share of it");
+  t.add_double("recovery_wide_motion_xy", &s->recovery.wide_motion_xy,
+               "the recovery search also runs when the predicted motion is this long, metres "
+               "(0 = never)");
+  t.add_double("recovery_wide_motion_theta", &s->recovery.wide_motion_theta_deg,
+               "... or turns this much, degrees (0 = never)");
+  t.add_double("recovery_insert_min_agreement", &s->recovery.insert_min_agreement,
+               "a scan agreeing less than this with the map is not written into it (0 = off)");
   t.add_double("key_sigma_xy", &s->key_sigma_xy,
                "pose-graph edge between consecutive inserted scans, metres");
   t.add_double("key_sigma_theta", &s->key_sigma_theta_deg, "... degrees");

@@ -18,6 +18,9 @@ void SlamRunStats::record(const SlamStep& step, double ms) {
   ms_per_scan.push_back(ms);
   ++scans;
   inserted += step.inserted ? 1 : 0;
+  recoveries_tried += step.recovery_tried ? 1 : 0;
+  recovered += step.recovered ? 1 : 0;
+  withheld += step.withheld ? 1 : 0;
   search_ms.push_back(step.search_ms);
   if (step.inserted) update_ms.push_back(step.update_ms);
   if (scans > 1) {
@@ -79,6 +82,9 @@ void write_slam_outputs(const std::string& dir, const Slam& slam, const SlamRunS
   j["update_ms_median"] = app::summarize(stats.update_ms).median;
   j["agreement_median"] = app::summarize(stats.agreement).median;
   j["weak_matches"] = stats.weak_matches;
+  j["recoveries_tried"] = stats.recoveries_tried;
+  j["recovered"] = stats.recovered;
+  j["withheld_scans"] = stats.withheld;
   j["loop_closures"] = slam.loop_closures();
   j["loop_closures_rejected"] = slam.loop_closures_rejected();
   j["key_scans"] = slam.key_scans();

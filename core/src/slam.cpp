@@ -20,6 +20,7 @@ void SlamConfig::validate() const {
   check(key_sigma_xy > 0.0 && key_sigma_theta_deg > 0.0,
         "slam.key_sigma_xy and key_sigma_theta must be > 0");
   if (loop.enabled) loop.validate();
+  if (recovery.enabled) recovery.validate();
 }
 
 SlamConfig SlamConfig::paper() {
@@ -38,6 +39,7 @@ SlamConfig SlamConfig::paper() {
   c.insert_min_travel = 0.0;
   c.insert_min_turn_deg = 0.0;
   c.loop.enabled = false;
+  c.recovery.enabled = false;
   return c;
 }
 
@@ -48,6 +50,8 @@ Slam::Slam(SlamConfig config)
 
 namespace {
 using Clock = std::chrono::steady_clock;
+/// The recovery window scales with the largest of this many last inter-scan motions.
+constexpr std::size_t kScaleSteps = 5;
 double ms_since(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
 }
@@ -68,11 +72,19 @@ SlamStep Slam::process(const LaserScan& scan) {
     step.predicted = tracked.predicted;
     step.pose = tracked.result.pose;
     step.fitness = tracked.result.value;
+    if (config_.recovery.enabled) recover(scan, points, motion, tracked.predicted, step);
     step.search_ms = ms_since(t_search);
     if (last_inserted_ && (config_.insert_min_travel > 0.0 || config_.insert_min_turn_deg > 0.0)) {
       const Pose2 d = step.pose.relative_to(*last_inserted_);
       insert = std::hypot(d.x, d.y) >= config_.insert_min_travel ||
                std::abs(d.theta) >= deg_to_rad(config_.insert_min_turn_deg);
+    }
+    const RecoveryConfig& rc = config_.recovery;
+    if (insert && rc.enabled && rc.insert_min_agreement > 0.0 &&
+        step.fitness.known_share() >= rc.min_known &&
+        step.fitness.agreement() < rc.insert_min_agreement) {
+      insert = false;
+      step.withheld = true;
     }
     const Pose2& prev = trajectory_.back().pose;
     path_length_ += std::hypot(step.pose.x - prev.x, step.pose.y - prev.y);
@@ -99,6 +111,52 @@ SlamStep Slam::process(const LaserScan& scan) {
     }
   }
   return step;
+}
+
+void Slam::recover(const LaserScan& scan, const ScanPoints& points, const MotionState& motion,
+                   const Pose2& predicted, SlamStep& step) {
+  const RecoveryConfig& rc = config_.recovery;
+  const bool weak = weak_match(rc, step.fitness);
+  // With odometry the motion is measured, not guessed: only a weak match triggers.
+  const Pose2 motion_step = predicted.relative_to(motion.last.pose);
+  const bool wide =
+      !(config_.tracking.use_odometry && scan.odometry && last_odometry_) &&
+      ((rc.wide_motion_xy > 0.0 && std::hypot(motion_step.x, motion_step.y) >= rc.wide_motion_xy) ||
+       (rc.wide_motion_theta_deg > 0.0 &&
+        std::abs(motion_step.theta) >= deg_to_rad(rc.wide_motion_theta_deg)));
+  if (!weak && !wide) return;
+  step.recovery_tried = true;
+  // The window scales with the largest recent motion (1 m or 45 degrees per scan = all of it,
+  // at least window_min_scale): a robot creeping 10 cm per scan cannot be 1.5 m off. No motion
+  // seen yet (the second scan): all of it.
+  RecoveryConfig scaled = rc;
+  const std::size_t n = trajectory_.size();
+  double scale = n < 2 ? 1.0 : rc.window_min_scale;
+  for (std::size_t i = n > kScaleSteps ? n - kScaleSteps : 1; i < n; ++i) {
+    const Pose2 d = trajectory_[i].pose.relative_to(trajectory_[i - 1].pose);
+    scale = std::max(scale, std::hypot(d.x, d.y) / rc.window_scale_xy +
+                                std::abs(d.theta) / deg_to_rad(rc.window_scale_theta_deg));
+  }
+  scale = std::min(scale, 1.0);
+  scaled.window_xy *= scale;
+  scaled.window_theta_deg *= scale;
+  // Centred on the predicted position with the previous heading: a turn is what a prediction
+  // gets most wrong.
+  const RecoveryResult r =
+      recover_pose(scaled, config_.tracking, es_, rng_, map_, points,
+                   {predicted.x, predicted.y, motion.last.pose.theta}, predicted);
+  // The farther the jump from the tracked pose, the clearer its gain in consistency must be.
+  const float gain = consistency(map_, points, r.result.pose).score() -
+                     consistency(map_, points, step.pose).score();
+  const Pose2 jump = r.result.pose.relative_to(step.pose);
+  const double d = std::hypot(jump.x, jump.y) + std::abs(jump.theta);
+  const double needed =
+      weak ? rc.min_gain + rc.gain_per_metre * d : rc.min_gain_fair + rc.gain_per_metre_fair * d;
+  if (r.result.value.known_share() >= rc.min_known && gain >= needed) {
+    step.recovered = true;
+    step.pose = r.result.pose;
+    step.fitness = r.result.value;
+  }
 }
 
 bool Slam::add_key_scan(const ScanPoints& points, const Pose2& pose, double stamp) {

@@ -8,8 +8,9 @@
 // SLAM needed to stay on track on the benchmark logs (docs/slam.md has the measurements):
 // constant-velocity prediction, every motion hypothesis in the initial population, a wider
 // initial spread, bilinear sub-cell fitness, a deterministic polish of the ES result, a motion
-// prior that breaks ties in corridors, inserting scans only after the robot moved,
-// and loop closure over a pose graph of the inserted scans.
+// prior that breaks ties in corridors, inserting scans only after the robot moved, a wide
+// recovery search when the match is weak (and weak scans kept out of the map), and loop
+// closure over a pose graph of the inserted scans.
 
 #include <cstdint>
 #include <optional>
@@ -24,6 +25,7 @@
 #include "esfleet/core/map_update.hpp"
 #include "esfleet/core/pose_graph.hpp"
 #include "esfleet/core/random.hpp"
+#include "esfleet/core/recovery.hpp"
 #include "esfleet/core/scan_points.hpp"
 #include "esfleet/core/tracking.hpp"
 
@@ -47,6 +49,9 @@ struct SlamConfig {
   LoopClosureConfig loop;
   double key_sigma_xy = 0.02;        ///< graph edge between consecutive inserted scans, metres
   double key_sigma_theta_deg = 0.3;  ///< ... degrees
+  /// A weak match triggers a wide correlative search, and a scan that still agrees poorly with
+  /// the map is not written into it (recovery.hpp).
+  RecoveryConfig recovery;
 
   /// Throws std::invalid_argument naming the field.
   void validate() const;
@@ -57,11 +62,14 @@ struct SlamConfig {
 
 /// What happened to one scan.
 struct SlamStep {
-  Pose2 pose;                ///< the pose estimate for this scan
-  Pose2 predicted;           ///< the prediction the search started from
-  FitnessValue fitness;      ///< fitness terms at `pose` (before this scan's map update)
-  bool inserted = false;     ///< whether the scan was written into the map
-  bool loop_closed = false;  ///< a loop closure was accepted and the graph re-optimised
+  Pose2 pose;                   ///< the pose estimate for this scan
+  Pose2 predicted;              ///< the prediction the search started from
+  FitnessValue fitness;         ///< fitness terms at `pose` (before this scan's map update)
+  bool inserted = false;        ///< whether the scan was written into the map
+  bool loop_closed = false;     ///< a loop closure was accepted and the graph re-optimised
+  bool recovery_tried = false;  ///< the tracked pose was weak: the recovery search ran
+  bool recovered = false;       ///< ... and its pose replaced the tracked one
+  bool withheld = false;        ///< due for insertion but too weak a match: not written
   MapUpdateStats update;
   double search_ms = 0.0;  ///< wall time of the pose search (ES and polish)
   double update_ms = 0.0;  ///< wall time of the map update
@@ -123,6 +131,10 @@ class Slam {
   void restore(SlamState state);
 
  private:
+  /// The recovery search for a weak match or a large predicted motion (SlamConfig::recovery):
+  /// replaces step.pose and step.fitness when it finds a clearly more consistent pose.
+  void recover(const LaserScan& scan, const ScanPoints& points, const MotionState& motion,
+               const Pose2& predicted, SlamStep& step);
   /// Adds the scan just inserted as a key scan (graph node + edge to the previous one) and
   /// tries a loop closure; returns true when the graph was re-optimised.
   bool add_key_scan(const ScanPoints& points, const Pose2& pose, double stamp);

@@ -1,0 +1,107 @@
+#pragma once
+// Recovery from a weak match (ours, beyond the paper): when the pose the tracking step found
+// for a scan agrees poorly with the map (the robot moved or turned far more than predicted:
+// dropped scans, key-scan logs, fast robots), a correlative search over a wide window around
+// the prediction finds where the scan fits, coarse to fine, and the (mu+1)-ES finishes from
+// the best candidates:
+//   1. coarse: the map around the prediction is max-pooled into cells 2^coarse_level larger;
+//      every pose of a grid (+-window_xy in steps of half a coarse cell, +-window_theta in
+//      steps that move an end point at the median range by about one coarse cell) is scored
+//      by the sum of the pooled values at up to `points` end points: an occupied cell its map
+//      value, a free one -free_penalty, an unknown one 0 (the maximum over the block: a true
+//      pose never scores low);
+//   2. fine: the `candidates` best distinct coarse poses are searched again at full resolution
+//      in a neighbourhood of one coarse step;
+//   3. the ES (the tracking's own configuration) starts from a population holding those
+//      candidates and polishes the best, on the full scan.
+// The result is taken only when it agrees clearly better with the map than the tracked pose
+// (Slam decides; see SlamConfig::recovery).
+
+#include <vector>
+
+#include "esfleet/core/es_search.hpp"
+#include "esfleet/core/geometry.hpp"
+#include "esfleet/core/grid_map.hpp"
+#include "esfleet/core/random.hpp"
+#include "esfleet/core/scan_points.hpp"
+#include "esfleet/core/tracking.hpp"
+
+namespace esfleet {
+
+struct RecoveryConfig {
+  bool enabled = true;
+  /// A tracked pose is weak when, with at least `min_known` of its end points on observed
+  /// cells, fewer than `weak_agreement` of those fall on cells with hits.
+  double weak_agreement = 0.7;
+  double min_known = 0.3;
+  /// The search also runs, whatever the match, when the motion since the last scan is
+  /// predicted to be at least this large (key-scan logs, dropped scans): a local search can
+  /// settle on a wrong pose that agrees well with the little the map knows ahead. 0 = never.
+  double wide_motion_xy = 0.4;          ///< metres
+  double wide_motion_theta_deg = 15.0;  ///< degrees
+  double window_xy = 1.5;               ///< search +- this around the prediction, metres
+  double window_theta_deg = 90.0;       ///< ... and +- this, degrees
+  /// Slam: the window is scaled by the last inter-scan motion, step / window_scale_xy +
+  /// turn / window_scale_theta, clamped to [window_min_scale, 1].
+  double window_scale_xy = 1.0;          ///< metres
+  double window_scale_theta_deg = 45.0;  ///< degrees
+  double window_min_scale = 0.25;
+  int coarse_level = 2;     ///< pooled cells are 2^level map cells
+  int points = 120;         ///< end points scored in the coarse and fine stages
+  double max_range = 20.0;  ///< end points farther than this are left out of both
+  /// What an end point on a known free cell scores in the coarse and fine stages (an occupied
+  /// cell scores its map value, an unknown one 0).
+  double free_penalty = 0.5;
+  /// Candidates are ranked by their consistency less this per metre from the prediction
+  /// (metres plus radians of turn).
+  double prior_per_metre = 0.0;
+  int candidates = 8;        ///< distinct coarse poses refined
+  double distinct_xy = 0.3;  ///< coarse poses closer than this (and distinct_theta) are one
+  double distinct_theta_deg = 5.0;
+  /// Slam: the recovered pose replaces the tracked one when its consistency score (below) is
+  /// higher by min_gain + gain_per_metre * d, d the distance between the two poses (metres,
+  /// plus the turn in radians as metres): the farther the jump, the clearer the evidence must
+  /// be (a corridor fits about as well a metre back, where the scan sees less unknown space).
+  /// For a weak tracked pose; a fair one searched because of the motion needs the *_fair ones.
+  double min_gain = 0.05;
+  double gain_per_metre = 0.1;
+  double min_gain_fair = 0.15;
+  double gain_per_metre_fair = 0.25;
+  /// Slam: a scan whose final agreement stays below this (with min_known observed) is not
+  /// written into the map. 0 = every scan the insertion rule picks is written.
+  double insert_min_agreement = 0.5;
+  /// Throws std::invalid_argument naming the field (as "slam.recovery_<field>").
+  void validate() const;
+};
+
+/// How consistent a scan at a pose is with the map, over all its end points: the share on
+/// cells with hits (evidence), minus the share on known free cells (contradiction), minus the
+/// share of beams that pass through a cell seen occupied more often than free before their end
+/// (see-through: a wrong pose in a symmetric place looks through walls). In [-2, 1].
+struct Consistency {
+  float evidence = 0.0f;
+  float contradiction = 0.0f;
+  float see_through = 0.0f;
+  float score() const { return evidence - contradiction - see_through; }
+};
+Consistency consistency(const GridMap& map, const ScanPoints& points, const Pose2& pose);
+
+/// True when `v` is a weak match by `config` (see RecoveryConfig::weak_agreement).
+bool weak_match(const RecoveryConfig& config, const FitnessValue& v);
+
+struct RecoveryResult {
+  EsResult result;            ///< the pose found and its fitness terms (tracking's fitness)
+  std::vector<Pose2> coarse;  ///< the distinct coarse candidates, best first (diagnostics)
+  int coarse_poses = 0;       ///< poses scored in the coarse stage
+};
+
+/// The correlative search around `centre` (Slam: the predicted position with the previous
+/// heading, as a turn is what a prediction gets most wrong), candidates ranked with a prior
+/// around `predicted`, finished by `es` with `tracking`'s fitness. Draws
+/// from `rng`. Returns nothing useful (coarse empty, result.value all zero) when the map has
+/// nothing known in the window.
+RecoveryResult recover_pose(const RecoveryConfig& config, const TrackingConfig& tracking,
+                            const EvolutionStrategy& es, Rng& rng, const GridMap& map,
+                            const ScanPoints& points, const Pose2& centre, const Pose2& predicted);
+
+}  // namespace esfleet

@@ -1,0 +1,330 @@
+#include "esfleet/core/recovery.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <numbers>
+#include <stdexcept>
+#include <string>
+
+namespace esfleet {
+
+void RecoveryConfig::validate() const {
+  auto check = [](bool ok, const std::string& what) {
+    if (!ok) throw std::invalid_argument("slam.recovery_" + what);
+  };
+  auto in01 = [](double v) { return v >= 0.0 && v <= 1.0; };
+  check(in01(weak_agreement), "weak_agreement must be in [0, 1]");
+  check(in01(min_known), "min_known must be in [0, 1]");
+  check(in01(min_gain) && in01(min_gain_fair), "min_gain and min_gain_fair must be in [0, 1]");
+  check(gain_per_metre >= 0.0 && gain_per_metre_fair >= 0.0,
+        "gain_per_metre and gain_per_metre_fair must be >= 0");
+  check(in01(insert_min_agreement), "insert_min_agreement must be in [0, 1]");
+  check(wide_motion_xy >= 0.0 && wide_motion_theta_deg >= 0.0,
+        "wide_motion_xy and wide_motion_theta must be >= 0 (0 = off)");
+  check(prior_per_metre >= 0.0, "prior_per_metre must be >= 0");
+  check(window_scale_xy > 0.0 && window_scale_theta_deg > 0.0,
+        "window_scale_xy and window_scale_theta must be > 0");
+  check(window_min_scale > 0.0 && window_min_scale <= 1.0, "window_min_scale must be in (0, 1]");
+  check(free_penalty >= 0.0 && free_penalty <= 10.0, "free_penalty must be in [0, 10]");
+  check(window_xy > 0.0 && window_xy <= 20.0, "window_xy must be in (0, 20] metres");
+  check(window_theta_deg > 0.0 && window_theta_deg <= 180.0,
+        "window_theta must be in (0, 180] degrees");
+  check(coarse_level >= 0 && coarse_level <= 4, "coarse_level must be in [0, 4]");
+  check(points >= 8 && points <= 10000, "points must be in [8, 10000]");
+  check(max_range > 0.0 && std::isfinite(max_range), "max_range must be > 0");
+  check(candidates >= 1 && candidates <= 100, "candidates must be in [1, 100]");
+  check(distinct_xy >= 0.0 && distinct_theta_deg >= 0.0,
+        "distinct_xy and distinct_theta must be >= 0");
+}
+
+bool weak_match(const RecoveryConfig& config, const FitnessValue& v) {
+  return v.known_share() >= config.min_known && v.agreement() < config.weak_agreement;
+}
+
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+inline std::int32_t floor_div(std::int32_t a, std::int32_t b) {
+  return a >= 0 ? a / b : -((-a + b - 1) / b);
+}
+
+/// The map's cells as scores over a window (occupied: the map value, free: -free_penalty,
+/// unknown: 0), and the same max-pooled into blocks of `factor` x `factor` cells aligned at
+/// multiples of `factor`.
+class LocalWindow {
+ public:
+  LocalWindow(const GridMap& map, std::int32_t x_min, std::int32_t y_min, std::int32_t x_max,
+              std::int32_t y_max, std::int32_t factor, float free_penalty)
+      : factor_(factor) {
+    bx0_ = floor_div(x_min, factor);
+    by0_ = floor_div(y_min, factor);
+    bw_ = floor_div(x_max, factor) - bx0_ + 1;
+    bh_ = floor_div(y_max, factor) - by0_ + 1;
+    x0_ = bx0_ * factor;
+    y0_ = by0_ * factor;
+    w_ = bw_ * factor;
+    h_ = bh_ * factor;
+    fine_.assign(static_cast<std::size_t>(w_) * static_cast<std::size_t>(h_) + 1, 0.0f);
+    coarse_.assign(static_cast<std::size_t>(bw_) * static_cast<std::size_t>(bh_) + 1,
+                   -free_penalty);
+    coarse_.back() = 0.0f;  // outside the window: unknown
+    const GridMap::Lookup lookup = map.lookup(0);
+    const GridMap::Lookup::Addressing a = lookup.addressing();
+    for (std::int32_t y = 0; y < h_; ++y) {
+      float* row = fine_.data() + static_cast<std::size_t>(y) * w_;
+      float* brow = coarse_.data() + static_cast<std::size_t>(y / factor) * bw_;
+      for (std::int32_t x = 0; x < w_; ++x) {
+        const std::int32_t cx = x0_ + x, cy = y0_ + y;
+        // Occupied: the map value; free: -free_penalty (an end point in free space speaks
+        // against the pose); unknown: 0.
+        const float score = lookup.tile(a.slot(cx, cy))[a.offset(cx, cy)];
+        const float v = score > 0.0f ? score : (score == 0.0f ? -free_penalty : 0.0f);
+        row[x] = v;
+        float& b = brow[x / factor];
+        b = std::max(b, v);
+        known_ |= score > 0.0f;
+      }
+    }
+  }
+  bool any_hit() const { return known_; }
+  std::int32_t factor() const { return factor_; }
+  /// Pooled value of the block holding level-0 cell (cx, cy); 0 outside.
+  float coarse(std::int32_t cx, std::int32_t cy) const {
+    const std::int32_t bx = (cx - x0_) / factor_, by = (cy - y0_) / factor_;
+    const bool inside = (cx >= x0_) & (cy >= y0_) & (bx < bw_) & (by < bh_);
+    return coarse_[inside ? static_cast<std::size_t>(by) * bw_ + bx : coarse_.size() - 1];
+  }
+  float fine(std::int32_t cx, std::int32_t cy) const {
+    const std::int32_t x = cx - x0_, y = cy - y0_;
+    const bool inside = (x >= 0) & (y >= 0) & (x < w_) & (y < h_);
+    return fine_[inside ? static_cast<std::size_t>(y) * w_ + x : fine_.size() - 1];
+  }
+
+ private:
+  std::int32_t factor_;
+  std::int32_t x0_ = 0, y0_ = 0, w_ = 0, h_ = 0;
+  std::int32_t bx0_ = 0, by0_ = 0, bw_ = 0, bh_ = 0;
+  std::vector<float> fine_, coarse_;
+  bool known_ = false;
+};
+
+inline std::int32_t floor_f(float v) {
+  const auto i = static_cast<std::int32_t>(v);
+  return i - static_cast<std::int32_t>(v < static_cast<float>(i));
+}
+
+struct Scored {
+  float score;
+  Pose2 pose;
+};
+
+/// The `keep` best distinct poses of `all` (sorted best first; ties by generation order).
+std::vector<Scored> best_distinct(std::vector<Scored> all, std::size_t keep, double dxy,
+                                  double dtheta) {
+  std::stable_sort(all.begin(), all.end(),
+                   [](const Scored& a, const Scored& b) { return a.score > b.score; });
+  std::vector<Scored> out;
+  for (const Scored& s : all) {
+    if (out.size() >= keep || !(s.score > 0.0f)) break;
+    bool near = false;
+    for (const Scored& o : out) {
+      if (std::hypot(s.pose.x - o.pose.x, s.pose.y - o.pose.y) < dxy &&
+          std::abs(normalize_angle(s.pose.theta - o.pose.theta)) < dtheta) {
+        near = true;
+        break;
+      }
+    }
+    if (!near) out.push_back(s);
+  }
+  return out;
+}
+
+}  // namespace
+
+Consistency consistency(const GridMap& map, const ScanPoints& points, const Pose2& pose) {
+  Consistency out;
+  const std::size_t n = points.size();
+  if (n == 0) return out;
+  const GridMap::Lookup lookup = map.lookup(0);
+  const GridMap::Lookup::Addressing a = lookup.addressing();
+  const double inv_cell = 1.0 / map.cell_size();
+  const double c = std::cos(pose.theta), s = std::sin(pose.theta);
+  const double ox = pose.x * inv_cell, oy = pose.y * inv_cell;
+  auto score_at = [&](double x, double y) {
+    const auto cx = static_cast<std::int32_t>(std::floor(x));
+    const auto cy = static_cast<std::int32_t>(std::floor(y));
+    return lookup.tile(a.slot(cx, cy))[a.offset(cx, cy)];
+  };
+  // A beam looks through a wall when a cell more than `margin` cells before its end point was
+  // seen occupied more often than free.
+  constexpr double kMargin = 3.0;
+  int hit = 0, free = 0, through = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double ex = points.x[i] * inv_cell, ey = points.y[i] * inv_cell;
+    const double wx = ox + c * ex - s * ey, wy = oy + s * ex + c * ey;
+    const float v = score_at(wx, wy);
+    hit += v > 0.0f;
+    free += v == 0.0f;
+    const double len = std::hypot(ex, ey);
+    const int steps = static_cast<int>(len - kMargin);
+    if (steps <= 1) continue;
+    const double dx = (wx - ox) / len, dy = (wy - oy) / len;
+    for (int k = 1; k < steps; ++k) {
+      if (score_at(ox + dx * k, oy + dy * k) > 0.5f) {
+        ++through;
+        break;
+      }
+    }
+  }
+  const auto nf = static_cast<float>(n);
+  out.evidence = static_cast<float>(hit) / nf;
+  out.contradiction = static_cast<float>(free) / nf;
+  out.see_through = static_cast<float>(through) / nf;
+  return out;
+}
+
+RecoveryResult recover_pose(const RecoveryConfig& config, const TrackingConfig& tracking,
+                            const EvolutionStrategy& es, Rng& rng, const GridMap& map,
+                            const ScanPoints& points, const Pose2& centre, const Pose2& predicted) {
+  RecoveryResult out;
+  out.result.pose = centre;
+  // The end points scored: those within max_range, evenly strided down to config.points.
+  std::vector<std::size_t> near;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    if (points.range[i] <= config.max_range) near.push_back(i);
+  }
+  if (near.size() < 8) return out;
+  const double stride = static_cast<double>(near.size()) / config.points;
+  std::vector<float> px, py, pr;
+  const double inv_cell = 1.0 / map.cell_size();
+  for (int j = 0; j < config.points; ++j) {
+    const auto k = static_cast<std::size_t>(stride > 1.0 ? std::floor(j * stride) : j);
+    if (k >= near.size()) break;
+    px.push_back(static_cast<float>(points.x[near[k]] * inv_cell));
+    py.push_back(static_cast<float>(points.y[near[k]] * inv_cell));
+    pr.push_back(points.range[near[k]]);
+  }
+  const std::size_t n = px.size();
+  std::vector<float> sorted_range = pr;
+  std::nth_element(sorted_range.begin(), sorted_range.begin() + n / 2, sorted_range.end());
+  const double median_range = std::max(1.0, static_cast<double>(sorted_range[n / 2]));
+  const double far = *std::max_element(pr.begin(), pr.end());
+
+  // The window of the map any scored end point can reach.
+  const auto factor = std::int32_t{1} << config.coarse_level;
+  const double reach = (config.window_xy + far) * inv_cell + 2.0;
+  const double cx = centre.x * inv_cell, cy = centre.y * inv_cell;
+  const LocalWindow window(
+      map, floor_f(static_cast<float>(cx - reach)), floor_f(static_cast<float>(cy - reach)),
+      floor_f(static_cast<float>(cx + reach)), floor_f(static_cast<float>(cy + reach)), factor,
+      static_cast<float>(config.free_penalty));
+  if (!window.any_hit()) return out;
+
+  // Coarse: positions in steps of half a pooled block, headings that move an end point at the
+  // median range by about one pooled block.
+  const double coarse_cell = map.cell_size() * factor;
+  const double step_xy = coarse_cell / 2.0;
+  const double step_theta =
+      std::clamp(std::atan2(coarse_cell, median_range), deg_to_rad(0.5), deg_to_rad(3.0));
+  const int nxy = static_cast<int>(std::ceil(config.window_xy / step_xy));
+  // Headings: +-window_theta around the centre's (all of them if that covers the circle).
+  const double half = deg_to_rad(config.window_theta_deg);
+  double lo = -half, hi = half;
+  if (hi - lo > 2.0 * kPi - step_theta) {
+    lo = -kPi;
+    hi = kPi - step_theta;
+  }
+  const int th_lo = static_cast<int>(std::floor(lo / step_theta));
+  const int th_hi = static_cast<int>(std::ceil(hi / step_theta));
+  std::vector<float> rx(n), ry(n);
+  std::vector<Scored> coarse;
+  coarse.reserve(static_cast<std::size_t>((th_hi - th_lo + 1) * (2 * nxy + 1) * (2 * nxy + 1)));
+  for (int it = th_lo; it <= th_hi; ++it) {
+    const double theta = normalize_angle(centre.theta + it * step_theta);
+    const auto c = static_cast<float>(std::cos(theta)), s = static_cast<float>(std::sin(theta));
+    for (std::size_t j = 0; j < n; ++j) {
+      rx[j] = c * px[j] - s * py[j];
+      ry[j] = s * px[j] + c * py[j];
+    }
+    for (int iy = -nxy; iy <= nxy; ++iy) {
+      const auto oy = static_cast<float>(cy + iy * step_xy * inv_cell);
+      for (int ix = -nxy; ix <= nxy; ++ix) {
+        const auto ox = static_cast<float>(cx + ix * step_xy * inv_cell);
+        float sum = 0.0f;
+        for (std::size_t j = 0; j < n; ++j) {
+          sum += window.coarse(floor_f(ox + rx[j]), floor_f(oy + ry[j]));
+        }
+        coarse.push_back({sum, {centre.x + ix * step_xy, centre.y + iy * step_xy, theta}});
+      }
+    }
+  }
+  out.coarse_poses = static_cast<int>(coarse.size());
+  const std::vector<Scored> best =
+      best_distinct(std::move(coarse), static_cast<std::size_t>(config.candidates),
+                    config.distinct_xy, deg_to_rad(config.distinct_theta_deg));
+  if (best.empty()) return out;
+  for (const Scored& b : best) out.coarse.push_back(b.pose);
+
+  // Fine: every cell and a third of the coarse heading step within one coarse step around each.
+  std::vector<Scored> fine;
+  const int fxy = factor / 2;
+  for (const Scored& b : best) {
+    Scored top{-1.0f, b.pose};
+    for (int it = -3; it <= 3; ++it) {
+      const double theta = normalize_angle(b.pose.theta + it * step_theta / 3.0);
+      const auto c = static_cast<float>(std::cos(theta)), s = static_cast<float>(std::sin(theta));
+      for (std::size_t j = 0; j < n; ++j) {
+        rx[j] = c * px[j] - s * py[j];
+        ry[j] = s * px[j] + c * py[j];
+      }
+      for (int iy = -fxy; iy <= fxy; ++iy) {
+        for (int ix = -fxy; ix <= fxy; ++ix) {
+          const Pose2 p{b.pose.x + ix * map.cell_size(), b.pose.y + iy * map.cell_size(), theta};
+          const auto ox = static_cast<float>(p.x * inv_cell);
+          const auto oy = static_cast<float>(p.y * inv_cell);
+          float sum = 0.0f;
+          for (std::size_t j = 0; j < n; ++j) {
+            sum += window.fine(floor_f(ox + rx[j]), floor_f(oy + ry[j]));
+          }
+          if (sum > top.score) top = {sum, p};
+        }
+      }
+    }
+    fine.push_back(top);
+  }
+  std::stable_sort(fine.begin(), fine.end(),
+                   [](const Scored& a, const Scored& b) { return a.score > b.score; });
+
+  // Each candidate polished at full resolution with the tracking's fitness, then judged by its
+  // consistency with the map (which also sees beams through walls) less prior_per_metre per
+  // metre from the prediction (a corridor fits as well a metre back); the best one is finished
+  // by the ES (no motion prior: the prediction is what failed) and polished.
+  const FitnessEvaluator eval(
+      map, points, slam_fitness_options(tracking, tracking.interpolation == Interpolation::kAll));
+  const FitnessEvaluator fine_eval(
+      map, points, slam_fitness_options(tracking, tracking.interpolation != Interpolation::kNone));
+  Pose2 start = fine.front().pose;
+  float best_score = -10.0f;
+  for (const Scored& f : fine) {
+    const EsResult r = refine_pose(fine_eval, f.pose, map.cell_size(), step_theta / 3.0, 0.005);
+    const Pose2 off = r.pose.relative_to(predicted);
+    const auto sc = static_cast<float>(consistency(map, points, r.pose).score() -
+                                       config.prior_per_metre *
+                                           (std::hypot(off.x, off.y) + std::abs(off.theta)));
+    if (sc > best_score) {
+      best_score = sc;
+      start = r.pose;
+    }
+  }
+  const auto initial =
+      make_initial_population(tracking.es.mu, map.cell_size(), step_theta / 3.0, rng);
+  out.result = es.search(eval, start, initial, rng);
+  if (tracking.refine) {
+    out.result = refine_pose(fine_eval, out.result.pose, 0.02, deg_to_rad(0.5), 0.001);
+  }
+  return out;
+}
+
+}  // namespace esfleet
