@@ -142,8 +142,11 @@ void Slam::recover(const LaserScan& scan, const ScanPoints& points, const Motion
   scaled.window_theta_deg *= scale;
   // Centred on the predicted position with the previous heading: a turn is what a prediction
   // gets most wrong.
+  // Its own draws, from the seed and the scan's index: the tracking's stream stays the same
+  // whether or not the search ran, and a resumed run draws the same.
+  Rng rng(config_.seed * 0x9E3779B97F4A7C15ULL + trajectory_.size());
   const RecoveryResult r =
-      recover_pose(scaled, config_.tracking, es_, rng_, map_, points,
+      recover_pose(scaled, config_.tracking, es_, rng, map_, points,
                    {predicted.x, predicted.y, motion.last.pose.theta}, predicted);
   // The farther the jump from the tracked pose, the clearer its gain in consistency must be.
   const float gain = consistency(map_, points, r.result.pose).score() -
