@@ -18,6 +18,9 @@ void LoopClosureConfig::validate() const {
   if (every < 1) throw std::invalid_argument("loop.every must be >= 1");
   if (cooldown < 0) throw std::invalid_argument("loop.cooldown must be >= 0");
   if (max_submap_scans < 1) throw std::invalid_argument("loop.max_submap_scans must be >= 1");
+  if (defer_keys < 0 || defer_keys > every) {
+    throw std::invalid_argument("loop.defer_keys must be in [0, loop.every]");
+  }
   positive(min_travel, "min_travel");
   positive(search_radius, "search_radius");
   positive(submap_radius, "submap_radius");
