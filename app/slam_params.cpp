@@ -66,6 +66,9 @@ void add_slam_params(ParamTable& t, SlamConfig* s, CarmenReaderOptions* r) {
   t.add_double("loop_move_min_theta", &s->loop.move_min_theta_deg,
                "... or turned this much, degrees");
   t.add_int("loop_every", &s->loop.every, "attempt a loop closure every N inserted scans");
+  t.add_int("loop_defer", &s->loop.defer_keys,
+            "search a loop closure on a worker thread and apply it N inserted scans later "
+            "(deterministic; 0 = search and apply at once on the mapping thread)");
   t.add_int("loop_cooldown", &s->loop.cooldown,
             "no loop-closure attempt for N inserted scans after an accepted one");
   t.add_double("loop_min_travel", &s->loop.min_travel,

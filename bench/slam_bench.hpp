@@ -15,6 +15,7 @@ struct SlamBenchOptions {
   std::string output = "esfleet-bench-slam.json";
   bool json = false;
   bool skip_default = false;
+  bool skip_paper = false;
   SlamConfig config;  ///< "default" run: esfleet's pipeline, flags may change it
   CarmenReaderOptions reader;
   app::ParamTable params;

@@ -70,15 +70,70 @@ void Checkpointer::write_journal() {
   write_file_atomically(dir_ + "/journal.json", j.dump() + "\n");
 }
 
-std::uint64_t Checkpointer::save(const Slam& slam, const CheckpointInfo& info) {
-  const std::uint64_t g = generation_;
+struct Checkpointer::Job {
+  std::uint64_t generation = 0;
+  CheckpointInfo info;
+  SlamState state;
+  double cell_size = 0.0;
+  int tile_edge = 0;
+  /// Every tile's key and version, sorted by key.
+  std::vector<std::pair<TileKey, std::uint64_t>> tiles;
+  /// Counters of the tiles whose version changed since the previous job.
+  struct Changed {
+    TileKey key;
+    std::uint64_t version = 0;
+    std::vector<std::uint32_t> hit, err;
+  };
+  std::vector<Changed> changed;
+  std::string why;  ///< for the log line; empty = periodic
+};
+
+std::unique_ptr<Checkpointer::Job> Checkpointer::prepare(const Slam& slam,
+                                                         const CheckpointInfo& info) {
+  auto job = std::make_unique<Job>();
+  job->generation = generation_++;
+  job->info = info;
+  job->state = slam.state();
+  const GridMap& map = slam.map();
+  job->cell_size = map.cell_size();
+  job->tile_edge = map.tile_edge();
+  for (const TileKey k : map.tile_keys()) {
+    const Tile& t = *map.find_tile(k);
+    job->tiles.emplace_back(k, t.version);
+    const auto it = handed_.find(k);
+    if (it != handed_.end() && it->second == t.version) continue;
+    job->changed.push_back({k, t.version, t.hit, t.err});
+    handed_[k] = t.version;
+  }
+  reserve(map);  // the journal covers every version in the snapshot
+  return job;
+}
+
+std::uint64_t Checkpointer::write(Job& job) {
+  for (Job::Changed& c : job.changed) {
+    encoded_[c.key] = {c.version, encode_tile(c.hit, c.err, TileEncoding::kMedZlib)};
+    c.hit = {};
+    c.err = {};
+  }
+  std::vector<SnapshotTile> tiles;
+  tiles.reserve(job.tiles.size());
+  for (const auto& [k, version] : job.tiles) {
+    const auto& [encoded_version, encoded] = encoded_.at(k);
+    if (encoded_version != version) {
+      throw std::logic_error("checkpoint: tile version " + std::to_string(version) +
+                             " was never handed over");
+    }
+    tiles.push_back({k, version, &encoded});
+  }
+  const std::uint64_t g = job.generation;
   const std::string map_name = "map." + std::to_string(g) + ".bin";
   const std::string slam_name = "slam." + std::to_string(g) + ".bin";
-  const std::string map_bytes = encode_map_snapshot(slam.map());
-  const std::string slam_bytes = encode_slam_state(slam.state());
+  const std::string map_bytes = encode_map_snapshot(job.cell_size, job.tile_edge, tiles);
+  const std::string slam_bytes = encode_slam_state(job.state);
+  job.state = {};
   write_file_atomically(dir_ + "/" + map_name, map_bytes);
   write_file_atomically(dir_ + "/" + slam_name, slam_bytes);
-  reserve(slam.map());  // the journal covers every version in the snapshot
+  const CheckpointInfo& info = job.info;
   const nlohmann::json manifest = {
       {"format", kFormat},
       {"generation", g},
@@ -91,12 +146,11 @@ std::uint64_t Checkpointer::save(const Slam& slam, const CheckpointInfo& info) {
       {"map_bytes", map_bytes.size()},
       {"slam_file", slam_name},
       {"slam_bytes", slam_bytes.size()},
-      {"tiles", slam.map().tile_count()},
+      {"tiles", job.tiles.size()},
       {"written_unix_s",
        std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count()},
   };
   write_file_atomically(dir_ + "/manifest.json", manifest.dump(2) + "\n");
-  ++generation_;
   // Older generations are unreachable now: remove them (best effort).
   std::error_code ec;
   for (const auto& e : fs::directory_iterator(dir_, ec)) {
@@ -107,6 +161,11 @@ std::uint64_t Checkpointer::save(const Slam& slam, const CheckpointInfo& info) {
     }
   }
   return map_bytes.size() + slam_bytes.size();
+}
+
+std::uint64_t Checkpointer::save(const Slam& slam, const CheckpointInfo& info) {
+  const std::unique_ptr<Job> job = prepare(slam, info);
+  return write(*job);
 }
 
 Resumed read_checkpoint(const std::string& checkpoint_dir, Slam& slam) {
@@ -222,25 +281,81 @@ CheckpointSchedule::CheckpointSchedule(const std::string& out_dir, std::size_t e
   if (resumed != nullptr) checkpointer_.adopt_journal(resumed->journal);
 }
 
+CheckpointSchedule::~CheckpointSchedule() {
+  {
+    const std::lock_guard lock(mutex_);
+    quit_ = true;
+  }
+  cv_.notify_all();
+  if (writer_.joinable()) writer_.join();
+}
+
 void CheckpointSchedule::after_scan(const Slam& slam) {
-  if (every_ > 0 && slam.scans_processed() % every_ == 0) save(slam, nullptr);
+  if (every_ > 0 && slam.scans_processed() % every_ == 0) start(slam, nullptr);
 }
 
 void CheckpointSchedule::save(const Slam& slam, const char* why) {
+  start(slam, why);
+  wait_idle();
+}
+
+void CheckpointSchedule::start(const Slam& slam, const char* why) {
   const auto t0 = std::chrono::steady_clock::now();
+  wait_idle();
   info_.scans = slam.scans_processed();
+  std::unique_ptr<Checkpointer::Job> job;
   try {
-    bytes_last_ = checkpointer_.save(slam, info_);
+    job = checkpointer_.prepare(slam, info_);
   } catch (const std::exception& e) {
     spdlog::error("checkpoint at scan {} failed: {}", slam.scans_processed(), e.what());
     return;
   }
-  ms_.push_back(
+  if (why != nullptr) job->why = why;
+  if (!writer_.joinable()) writer_ = std::thread([this] { writer_loop(); });
+  {
+    const std::lock_guard lock(mutex_);
+    job_ = std::move(job);
+  }
+  cv_.notify_all();
+  handoff_ms_.push_back(
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
-  if (ms_.size() == 1 || ms_.size() % 20 == 0 || why != nullptr) {
-    spdlog::info("checkpoint {} at scan {}{}: {:.0f} kB in {:.1f} ms", ms_.size(),
-                 slam.scans_processed(), why != nullptr ? fmt::format(" ({})", why) : "",
-                 static_cast<double>(bytes_last_) / 1e3, ms_.back());
+}
+
+void CheckpointSchedule::wait_idle() {
+  std::unique_lock lock(mutex_);
+  cv_.wait(lock, [this] { return job_ == nullptr && !busy_; });
+}
+
+void CheckpointSchedule::writer_loop() {
+  std::unique_lock lock(mutex_);
+  while (true) {
+    cv_.wait(lock, [this] { return job_ != nullptr || quit_; });
+    if (job_ == nullptr) return;  // quit, nothing left to write
+    const std::unique_ptr<Checkpointer::Job> job = std::move(job_);
+    busy_ = true;
+    lock.unlock();
+    const auto t0 = std::chrono::steady_clock::now();
+    const std::uint64_t scans = job->info.scans;
+    std::optional<std::uint64_t> bytes;
+    try {
+      bytes = checkpointer_.write(*job);
+    } catch (const std::exception& e) {
+      spdlog::error("checkpoint at scan {} failed: {}", scans, e.what());
+    }
+    const double ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    lock.lock();
+    if (bytes) {
+      bytes_last_ = *bytes;
+      ms_.push_back(ms);
+      if (ms_.size() == 1 || ms_.size() % 20 == 0 || !job->why.empty()) {
+        spdlog::info("checkpoint {} at scan {}{}: {:.0f} kB in {:.1f} ms (writer thread)",
+                     ms_.size(), scans, job->why.empty() ? "" : fmt::format(" ({})", job->why),
+                     static_cast<double>(*bytes) / 1e3, ms);
+      }
+    }
+    busy_ = false;
+    cv_.notify_all();
   }
 }
 
@@ -254,13 +369,23 @@ void CheckpointSchedule::reserve(const GridMap& map) {
 }
 
 nlohmann::json CheckpointSchedule::stats() const {
-  const app::Summary c = app::summarize(ms_);
+  std::vector<double> ms;
+  std::uint64_t bytes_last = 0;
+  {
+    const std::lock_guard lock(mutex_);
+    ms = ms_;
+    bytes_last = bytes_last_;
+  }
+  const app::Summary c = app::summarize(ms);
+  const app::Summary h = app::summarize(handoff_ms_);
   return {{"dir", checkpointer_.dir()},
           {"every", every_},
-          {"written", ms_.size()},
+          {"written", ms.size()},
           {"ms_median", c.median},
           {"ms_max", c.max},
-          {"bytes_last", bytes_last_},
+          {"mapping_thread_ms_median", h.median},
+          {"mapping_thread_ms_max", h.max},
+          {"bytes_last", bytes_last},
           {"version_ceiling", checkpointer_.journal().version_ceiling}};
 }
 

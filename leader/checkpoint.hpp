@@ -19,8 +19,14 @@
 // On resume every tile takes version ceiling + 1 and tiles the journal names but the checkpoint
 // lacks are created empty, so every tile the followers hold is replaced by a newer version.
 
+#include <condition_variable>
 #include <cstdint>
+#include <map>
+#include <memory>
+#include <mutex>
 #include <optional>
+#include <thread>
+#include <unordered_map>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -28,6 +34,7 @@
 
 #include "esfleet/core/grid_map.hpp"
 #include "esfleet/core/slam.hpp"
+#include "esfleet/core/tile_codec.hpp"
 #include "esfleet/mapshare/publish_journal.hpp"
 
 namespace esfleet::leader {
@@ -52,7 +59,19 @@ class Checkpointer {
   void reserve(const GridMap& map);
   /// Writes generation g+1 of the checkpoint (snapshot files, journal, manifest last) and
   /// deletes older generations; returns the bytes written. Throws std::runtime_error.
+  /// The same as write(prepare(slam, info)).
   std::uint64_t save(const Slam& slam, const CheckpointInfo& info);
+
+  /// What one checkpoint needs, copied from the SLAM (the counters of the tiles changed since
+  /// the previous prepare only), so that write() can run on another thread.
+  struct Job;
+  /// On the thread that owns `slam`: copies the state and the changed tiles and brings the
+  /// journal up to the snapshot (journal.json is written before the manifest that needs it).
+  std::unique_ptr<Job> prepare(const Slam& slam, const CheckpointInfo& info);
+  /// Encodes the changed tiles (the others come from earlier writes), writes the snapshot
+  /// files and the manifest (each atomically, the manifest last) and deletes older
+  /// generations; returns the bytes written. One call at a time, jobs in prepare() order.
+  std::uint64_t write(Job& job);
 
   /// Takes over a resumed leader's journal and writes it at once (before anything is published).
   void adopt_journal(mapshare::PublishJournal journal) {
@@ -66,8 +85,12 @@ class Checkpointer {
   void write_journal();
 
   std::string dir_;
-  std::uint64_t generation_;  ///< of the next save()
+  std::uint64_t generation_;  ///< of the next prepare()
   mapshare::PublishJournal journal_;
+  /// prepare(): the tile versions handed to write() so far.
+  std::unordered_map<TileKey, std::uint64_t, TileKeyHash> handed_;
+  /// write(): each tile's counters encoded at the version last handed over.
+  std::map<TileKey, std::pair<std::uint64_t, EncodedTile>> encoded_;
 };
 
 /// A loaded checkpoint.
@@ -108,9 +131,18 @@ class CheckpointSchedule {
   CheckpointSchedule(const std::string& out_dir, std::size_t every, CheckpointInfo info,
                      const std::string& resume_dir = {}, const Resumed* resumed = nullptr);
 
-  /// After each scan: saves when the scans processed are a multiple of `every`.
+  /// Waits for the writer thread to finish the last checkpoint.
+  ~CheckpointSchedule();
+  CheckpointSchedule(const CheckpointSchedule&) = delete;
+  CheckpointSchedule& operator=(const CheckpointSchedule&) = delete;
+
+  /// After each scan: checkpoints when the scans processed are a multiple of `every`. The
+  /// snapshot is copied here (the changed tiles, the SLAM state) and written by a writer thread
+  /// while mapping goes on; a checkpoint still being written when the next one is due is
+  /// waited for.
   void after_scan(const Slam& slam);
-  /// Saves now; `why` (e.g. "end of input") goes into the log line.
+  /// Checkpoints now and waits until it is written; `why` (e.g. "end of input") goes into the
+  /// log line.
   void save(const Slam& slam, const char* why);
   /// Before a publish of `map`: keeps the journal ahead of it.
   void reserve(const GridMap& map);
@@ -120,12 +152,26 @@ class CheckpointSchedule {
   const Checkpointer& checkpointer() const { return checkpointer_; }
 
  private:
+  /// Hands a checkpoint to the writer thread (after the previous one is written).
+  void start(const Slam& slam, const char* why);
+  /// Waits until the writer thread is idle.
+  void wait_idle();
+  void writer_loop();
+
   std::size_t every_;
   CheckpointInfo info_;
   Checkpointer checkpointer_;
-  std::vector<double> ms_;  ///< duration of each save
-  std::uint64_t bytes_last_ = 0;
+  std::vector<double> handoff_ms_;  ///< mapping-thread time of each checkpoint (copy, hand-off)
   bool reserve_failed_logged_ = false;
+
+  mutable std::mutex mutex_;
+  std::condition_variable cv_;
+  std::unique_ptr<Checkpointer::Job> job_;  ///< waiting for the writer
+  bool busy_ = false;                       ///< the writer holds a job
+  bool quit_ = false;
+  std::vector<double> ms_;  ///< writer time of each checkpoint (guarded by mutex_)
+  std::uint64_t bytes_last_ = 0;
+  std::thread writer_;  ///< last: started after everything it uses
 };
 
 }  // namespace esfleet::leader

@@ -107,11 +107,15 @@ FitnessValue FitnessEvaluator::evaluate(const Pose2& pose) const {
   const GridMap::Lookup::Addressing map = lookup_.addressing();
   const GridMap::Lookup& tiles = lookup_;
 
-  alignas(32) std::int32_t slot[4 * kBlock];
-  alignas(32) std::int32_t offset[4 * kBlock];
-  alignas(32) float value[4 * kBlock];
+  alignas(32) std::int32_t slot[kBlock];
+  alignas(32) std::int32_t offset[kBlock];
+  alignas(32) std::int32_t cell_x[kBlock];
+  alignas(32) std::int32_t cell_y[kBlock];
+  alignas(32) float value[kBlock];
   alignas(32) float frac_x[kBlock];
   alignas(32) float frac_y[kBlock];
+  alignas(32) float v00[kBlock], v10[kBlock], v01[kBlock], v11[kBlock];
+  const std::int32_t edge = std::int32_t{1} << map.shift;
   float sum = 0.0f;
   std::int32_t n_hit = 0, n_err = 0, n_known = 0;
   Lanes lanes;
@@ -131,34 +135,48 @@ FitnessValue FitnessEvaluator::evaluate(const Pose2& pose) const {
       continue;
     }
     // Bilinear: the four cells whose centres surround the point. The point's own cell (for
-    // the penalty counts) is one of them.
+    // the penalty counts) is one of them. Unless the 2x2 block straddles a tile border (about
+    // 3 % of the beams with 64-cell tiles), all four cells are in one tile: one directory
+    // look-up and four loads from one address (q, q + 1, q + edge, q + edge + 1).
     for (std::size_t j = 0; j < m; ++j) {
       const float gx = fx + c * px[base + j] - s * py[base + j] - 0.5f;
       const float gy = fy + s * px[base + j] + c * py[base + j] - 0.5f;
       const std::int32_t x0 = fast_floor(gx), y0 = fast_floor(gy);
       frac_x[j] = gx - static_cast<float>(x0);
       frac_y[j] = gy - static_cast<float>(y0);
-      slot[4 * j] = map.slot(x0, y0);
-      offset[4 * j] = map.offset(x0, y0);
-      slot[4 * j + 1] = map.slot(x0 + 1, y0);
-      offset[4 * j + 1] = map.offset(x0 + 1, y0);
-      slot[4 * j + 2] = map.slot(x0, y0 + 1);
-      offset[4 * j + 2] = map.offset(x0, y0 + 1);
-      slot[4 * j + 3] = map.slot(x0 + 1, y0 + 1);
-      offset[4 * j + 3] = map.offset(x0 + 1, y0 + 1);
+      cell_x[j] = x0;
+      cell_y[j] = y0;
+      const bool straddles = ((x0 & map.mask) == map.mask) | ((y0 & map.mask) == map.mask);
+      slot[j] = straddles ? -1 : map.slot(x0, y0);
+      offset[j] = map.offset(x0, y0);
     }
-    for (std::size_t j = 0; j < 4 * m; ++j) value[j] = tiles.tile(slot[j])[offset[j]];
     for (std::size_t j = 0; j < m; ++j) {
-      const float* q = value + 4 * j;
+      if (slot[j] >= 0) {
+        const float* q = tiles.tile(slot[j]) + offset[j];
+        v00[j] = q[0];
+        v10[j] = q[1];
+        v01[j] = q[edge];
+        v11[j] = q[edge + 1];
+      } else {
+        const std::int32_t x0 = cell_x[j], y0 = cell_y[j];
+        v00[j] = tiles.tile(map.slot(x0, y0))[map.offset(x0, y0)];
+        v10[j] = tiles.tile(map.slot(x0 + 1, y0))[map.offset(x0 + 1, y0)];
+        v01[j] = tiles.tile(map.slot(x0, y0 + 1))[map.offset(x0, y0 + 1)];
+        v11[j] = tiles.tile(map.slot(x0 + 1, y0 + 1))[map.offset(x0 + 1, y0 + 1)];
+      }
+    }
+    for (std::size_t j = 0; j < m; ++j) {
       const float ax = frac_x[j], ay = frac_y[j];
-      const float v00 = std::max(q[0], 0.0f), v10 = std::max(q[1], 0.0f);
-      const float v01 = std::max(q[2], 0.0f), v11 = std::max(q[3], 0.0f);
-      sum += (1.0f - ay) * ((1.0f - ax) * v00 + ax * v10) + ay * ((1.0f - ax) * v01 + ax * v11);
-      const float v = q[(ax >= 0.5f ? 1 : 0) + (ay >= 0.5f ? 2 : 0)];
+      const float a00 = std::max(v00[j], 0.0f), a10 = std::max(v10[j], 0.0f);
+      const float a01 = std::max(v01[j], 0.0f), a11 = std::max(v11[j], 0.0f);
+      value[j] = (1.0f - ay) * ((1.0f - ax) * a00 + ax * a10) + ay * ((1.0f - ax) * a01 + ax * a11);
+      const float v = ay >= 0.5f ? (ax >= 0.5f ? v11[j] : v01[j]) : (ax >= 0.5f ? v10[j] : v00[j]);
       n_hit += v > 0.0f;
       n_err += (v >= 0.0f) & (v < 1.0f);
       n_known += v >= 0.0f;
     }
+    // Summed in beam order, one at a time: the result does not depend on the block layout.
+    for (std::size_t j = 0; j < m; ++j) sum += value[j];
   }
   lanes.total(sum, n_hit, n_err, n_known);
   finish(out, sum, n_hit, n_err, n_known, n, options_.use_penalty);

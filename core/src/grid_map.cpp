@@ -193,8 +193,14 @@ Tile* GridMap::tile_for_write(CellIndex c) {
 }
 
 bool GridMap::modify(CellIndex c, bool hit_counter, bool increment) {
-  Tile* t = tile_for_write(c);
-  if (t == nullptr) return false;
+  const TileKey k = tile_of(c);
+  Tile* t = last_.tile;
+  if (t == nullptr || !(k == last_.key)) {
+    t = tile_for_write(c);
+    if (t == nullptr) return false;
+    last_.key = k;
+    last_.tile = t;
+  }
   const auto i = static_cast<std::size_t>(((c.y & mask_) << shift_) | (c.x & mask_));
   std::uint32_t& v = hit_counter ? t->hit[i] : t->err[i];
   // Saturate at both ends: counters never wrap.

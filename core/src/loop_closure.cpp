@@ -18,6 +18,9 @@ void LoopClosureConfig::validate() const {
   if (every < 1) throw std::invalid_argument("loop.every must be >= 1");
   if (cooldown < 0) throw std::invalid_argument("loop.cooldown must be >= 0");
   if (max_submap_scans < 1) throw std::invalid_argument("loop.max_submap_scans must be >= 1");
+  if (defer_keys < 0 || defer_keys > every) {
+    throw std::invalid_argument("loop.defer_keys must be in [0, loop.every]");
+  }
   positive(min_travel, "min_travel");
   positive(search_radius, "search_radius");
   positive(submap_radius, "submap_radius");
@@ -64,7 +67,8 @@ std::optional<LoopMatch> find_loop_closure(const std::vector<KeyScan>& keys,
   coarse_options.level = kCoarseLevel;
   coarse_options.stride = 2;
   coarse_options.interpolate = false;
-  const FitnessEvaluator coarse(submap, points, coarse_options);
+  // Positions share a heading: HeadingScorer gives FitnessEvaluator's values bit for bit.
+  HeadingScorer coarse(submap, points, coarse_options);
   const double coarse_cell = map_config.cell_size * (1 << kCoarseLevel);
   const double step_xy = coarse_cell / 2.0;
   const double step_theta = std::atan2(coarse_cell, 10.0);
@@ -78,10 +82,11 @@ std::optional<LoopMatch> find_loop_closure(const std::vector<KeyScan>& keys,
   scored.reserve(static_cast<std::size_t>((2 * nxy + 1) * (2 * nxy + 1) * (2 * nth + 1)));
   for (int it = -nth; it <= nth; ++it) {
     const double th = normalize_angle(estimate.theta + it * step_theta);
+    coarse.set_heading(th);
     for (int iy = -nxy; iy <= nxy; ++iy) {
       for (int ix = -nxy; ix <= nxy; ++ix) {
         const Pose2 p{estimate.x + ix * step_xy, estimate.y + iy * step_xy, th};
-        scored.push_back({coarse.fitness(p), p});
+        scored.push_back({coarse.evaluate(p.x, p.y).fitness, p});
       }
     }
   }

@@ -179,16 +179,75 @@ bool Slam::add_key_scan(const ScanPoints& points, const Pose2& pose, double stam
     e.info_theta = 1.0 / std::pow(deg_to_rad(config_.key_sigma_theta_deg), 2);
     graph_.add_edge(e);
   }
-  if (k == 0 || k % static_cast<std::size_t>(config_.loop.every) != 0) return false;
+  bool closed = false;
+  if (pending_loop_ &&
+      k >= pending_loop_->key + static_cast<std::size_t>(config_.loop.defer_keys)) {
+    closed = finish_loop_search();
+  }
+  if (k == 0 || k % static_cast<std::size_t>(config_.loop.every) != 0) return closed;
   // After an accepted closure the graph is consistent here: wait before the next attempt.
   if (last_loop_ && k - last_loop_->key < static_cast<std::size_t>(config_.loop.cooldown)) {
-    return false;
+    return closed;
   }
-  const auto match = find_loop_closure(
-      keys_, graph_.nodes(), points, pose, path_length_, config_.loop, config_.map, config_.update,
-      slam_fitness_options(config_.tracking,
-                           config_.tracking.interpolation != Interpolation::kNone));
+  start_loop_search(k);
+  if (config_.loop.defer_keys == 0) closed = finish_loop_search() || closed;
+  return closed;
+}
+
+void Slam::start_loop_search(std::size_t k) {
+  const LoopClosureConfig& lc = config_.loop;
+  const Pose2 estimate = graph_.node(k);
+  const double path_length = keys_[k].path_length;
+  // The old scans find_loop_closure would use (same filter, nearest first, at most
+  // max_submap_scans), handed over in index order so that it orders and anchors them as it
+  // would among all key scans.
+  std::vector<std::pair<double, std::size_t>> near;
+  bool trigger = false;
+  for (std::size_t i = 0; i < keys_.size(); ++i) {
+    if (path_length - keys_[i].path_length < lc.min_travel) continue;
+    const Pose2& p = graph_.node(i);
+    const double d = std::hypot(p.x - estimate.x, p.y - estimate.y);
+    if (d <= lc.search_radius) trigger = true;
+    if (d <= lc.submap_radius) near.emplace_back(d, i);
+  }
+  std::vector<std::size_t> ids;
+  if (trigger && near.size() >= 3) {
+    std::sort(near.begin(), near.end());
+    if (near.size() > static_cast<std::size_t>(lc.max_submap_scans)) {
+      near.resize(static_cast<std::size_t>(lc.max_submap_scans));
+    }
+    for (const auto& [d, i] : near) ids.push_back(i);
+    std::sort(ids.begin(), ids.end());
+  }
+  std::vector<KeyScan> old_keys;
+  std::vector<Pose2> old_poses;
+  old_keys.reserve(ids.size());
+  for (const std::size_t i : ids) {
+    old_keys.push_back(keys_[i]);
+    old_poses.push_back(graph_.node(i));
+  }
+  auto search = [ids = std::move(ids), old_keys = std::move(old_keys),
+                 old_poses = std::move(old_poses), points = keys_[k].points, estimate, path_length,
+                 lc, map = config_.map, update = config_.update,
+                 fitness = slam_fitness_options(
+                     config_.tracking, config_.tracking.interpolation !=
+                                           Interpolation::kNone)]() -> std::optional<LoopMatch> {
+    if (ids.empty()) return std::nullopt;
+    auto match = find_loop_closure(old_keys, old_poses, points, estimate, path_length, lc, map,
+                                   update, fitness);
+    if (match) match->anchor = ids[match->anchor];
+    return match;
+  };
+  const auto policy = lc.defer_keys > 0 ? std::launch::async : std::launch::deferred;
+  pending_loop_ = PendingLoop{k, estimate, std::async(policy, std::move(search))};
+}
+
+bool Slam::finish_loop_search() {
+  PendingLoop pending = std::move(*pending_loop_);
+  pending_loop_.reset();
+  const std::optional<LoopMatch> match = pending.match.get();
   if (!match) return false;
+  const std::size_t k = pending.key;
   PoseGraphEdge e;
   e.from = match->anchor;
   e.to = k;
@@ -210,8 +269,8 @@ bool Slam::add_key_scan(const ScanPoints& points, const Pose2& pose, double stam
     return false;
   }
   ++loop_closures_;
-  last_loop_ = LoopEvent{k, match->anchor, match->pose.relative_to(pose), match->value.agreement(),
-                         match->ambiguity};
+  last_loop_ = LoopEvent{k, match->anchor, match->pose.relative_to(pending.estimate),
+                         match->value.agreement(), match->ambiguity};
   apply_graph();
   return true;
 }
@@ -254,6 +313,7 @@ SlamState Slam::state() const {
   s.loop_closures = loop_closures_;
   s.loop_rejected = loop_rejected_;
   s.last_loop = last_loop_;
+  if (pending_loop_) s.pending_loop_key = pending_loop_->key;
   return s;
 }
 
@@ -280,6 +340,8 @@ void Slam::restore(SlamState s) {
         "loop closure is on but the state has no anchors (saved with loop closure off?)");
   check(s.last_loop.has_value() == false || s.last_loop->key < s.keys.size(),
         "last_loop.key out of range");
+  check(!s.pending_loop_key || *s.pending_loop_key < s.keys.size(),
+        "pending_loop_key out of range");
   rng_.set_state(s.rng);
   trajectory_ = std::move(s.trajectory);
   last_odometry_ = s.last_odometry;
@@ -293,6 +355,9 @@ void Slam::restore(SlamState s) {
   loop_closures_ = s.loop_closures;
   loop_rejected_ = s.loop_rejected;
   last_loop_ = s.last_loop;
+  pending_loop_.reset();
+  // A state read only to look at its map (loop closure off) leaves the search undone.
+  if (s.pending_loop_key && config_.loop.enabled) start_loop_search(*s.pending_loop_key);
 }
 
 }  // namespace esfleet

@@ -44,6 +44,7 @@ class Out {
     put<std::uint64_t>(v.size());
     bytes_.append(reinterpret_cast<const char*>(v.data()), v.size());
   }
+  void reserve(std::size_t n) { bytes_.reserve(n); }
   std::string finish() {
     put(detail::fnv1a(bytes_));
     return std::move(bytes_);
@@ -104,6 +105,7 @@ class In {
     take(v.data(), v.size(), field);
     return v;
   }
+  bool at_end() const { return rest_.empty(); }
   void done() const {
     if (!rest_.empty()) fail("end", std::to_string(rest_.size()) + " trailing bytes");
   }
@@ -121,19 +123,31 @@ class In {
 }  // namespace
 
 std::string encode_map_snapshot(const GridMap& map) {
-  Out out(kMapMagic);
-  out.put(map.cell_size());
-  out.put<std::uint32_t>(static_cast<std::uint32_t>(map.tile_edge()));
   const std::vector<TileKey> keys = map.tile_keys();
-  out.put<std::uint64_t>(keys.size());
+  std::vector<EncodedTile> encoded;
+  std::vector<SnapshotTile> tiles;
+  encoded.reserve(keys.size());
+  tiles.reserve(keys.size());
   for (const TileKey k : keys) {
     const Tile& t = *map.find_tile(k);
-    out.put(k.tx);
-    out.put(k.ty);
+    encoded.push_back(encode_tile(t.hit, t.err, TileEncoding::kMedZlib));
+    tiles.push_back({k, t.version, &encoded.back()});
+  }
+  return encode_map_snapshot(map.cell_size(), map.tile_edge(), tiles);
+}
+
+std::string encode_map_snapshot(double cell_size, int tile_edge,
+                                const std::vector<SnapshotTile>& tiles) {
+  Out out(kMapMagic);
+  out.put(cell_size);
+  out.put<std::uint32_t>(static_cast<std::uint32_t>(tile_edge));
+  out.put<std::uint64_t>(tiles.size());
+  for (const SnapshotTile& t : tiles) {
+    out.put(t.key.tx);
+    out.put(t.key.ty);
     out.put(t.version);
-    const EncodedTile e = encode_tile(t.hit, t.err, TileEncoding::kMedZlib);
-    out.put(static_cast<std::uint8_t>(e.encoding));
-    out.put_bytes(e.payload);
+    out.put(static_cast<std::uint8_t>(t.encoded->encoding));
+    out.put_bytes(t.encoded->payload);
   }
   return out.finish();
 }
@@ -172,6 +186,13 @@ void decode_map_snapshot(std::string_view bytes, GridMap& map) {
 
 std::string encode_slam_state(const SlamState& s) {
   Out out(kSlamMagic);
+  // Sized up front: growing by doubling would hold up to three times the key scans' bytes.
+  std::size_t size = 256 + 32 * s.trajectory.size() + 24 * s.graph_nodes.size() +
+                     64 * s.graph_edges.size() + 32 * s.anchors.size();
+  for (const KeyScan& k : s.keys) {
+    size += 96 + 4 * (3 * k.points.size() + k.points.no_return_angles.size());
+  }
+  out.reserve(size);
   for (const std::uint64_t w : s.rng.s) out.put(w);
   out.put(s.rng.spare);
   out.put<std::uint8_t>(s.rng.has_spare ? 1 : 0);
@@ -219,6 +240,8 @@ std::string encode_slam_state(const SlamState& s) {
     out.put(s.last_loop->agreement);
     out.put(s.last_loop->ambiguity);
   }
+  // Appended only when present, so that a state without one has the layout of before.
+  if (s.pending_loop_key) out.put<std::uint64_t>(*s.pending_loop_key);
   return out.finish();
 }
 
@@ -283,6 +306,9 @@ SlamState decode_slam_state(std::string_view bytes) {
     e.agreement = in.get<float>("last_loop.agreement");
     e.ambiguity = in.get<double>("last_loop.ambiguity");
     s.last_loop = e;
+  }
+  if (!in.at_end()) {
+    s.pending_loop_key = static_cast<std::size_t>(in.get<std::uint64_t>("pending_loop_key"));
   }
   in.done();
   return s;

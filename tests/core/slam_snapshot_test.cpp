@@ -61,6 +61,43 @@ TEST(SlamSnapshot, RestoredSlamContinuesBitIdentically) {
   }
 }
 
+TEST(SlamSnapshot, APendingDeferredLoopSearchIsSavedAndRestarted) {
+  // Loop closure on a worker thread (defer_keys): a snapshot taken while a search is pending
+  // holds its key scan; the restored Slam searches again and applies the result at the same
+  // key scan as the one never stopped.
+  SlamConfig config = test_config();
+  config.loop.defer_keys = 5;
+  const std::vector<LaserScan> scans = csail_scans(300);
+  ASSERT_EQ(scans.size(), 300u);
+  Slam straight(config);
+  std::string map_blob, slam_blob;
+  std::size_t cut = 0;
+  for (std::size_t i = 0; i < scans.size(); ++i) {
+    if (cut == 0 && i >= 150) {
+      const SlamState state = straight.state();
+      if (state.pending_loop_key) {
+        cut = i;
+        map_blob = encode_map_snapshot(straight.map());
+        slam_blob = encode_slam_state(state);
+      }
+    }
+    straight.process(scans[i]);
+  }
+  ASSERT_GT(cut, 0u) << "no pending search after scan 150";
+  Slam resumed(config);
+  decode_map_snapshot(map_blob, resumed.map());
+  resumed.restore(decode_slam_state(slam_blob));
+  ASSERT_TRUE(resumed.state().pending_loop_key.has_value());
+  for (std::size_t i = cut; i < scans.size(); ++i) resumed.process(scans[i]);
+  EXPECT_EQ(map_digest(resumed.map()), map_digest(straight.map()));
+  ASSERT_EQ(resumed.trajectory().size(), straight.trajectory().size());
+  for (std::size_t i = 0; i < scans.size(); ++i) {
+    EXPECT_EQ(resumed.trajectory()[i].pose.x, straight.trajectory()[i].pose.x) << i;
+    EXPECT_EQ(resumed.trajectory()[i].pose.theta, straight.trajectory()[i].pose.theta) << i;
+  }
+  EXPECT_EQ(resumed.loop_closures(), straight.loop_closures());
+}
+
 TEST(SlamSnapshot, DamageIsReportedWithTheField) {
   const std::vector<LaserScan> scans = csail_scans(60);
   Slam slam(test_config());

@@ -20,6 +20,7 @@
 #include <memory>
 #include <span>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 namespace esfleet {
@@ -199,6 +200,20 @@ class GridMap {
   std::int32_t mask_ = 63;
   std::unordered_map<TileKey, std::unique_ptr<Tile>, TileKeyHash> tiles_;
   std::vector<Tile*> touched_;
+  /// The tile the last write went to (tiles never move or go away): consecutive cells of a
+  /// beam mostly share a tile, so a write skips the directory. A moved-from map forgets it.
+  struct LastTile {
+    TileKey key;
+    Tile* tile = nullptr;
+    LastTile() = default;
+    LastTile(LastTile&& o) noexcept : key(o.key), tile(std::exchange(o.tile, nullptr)) {}
+    LastTile& operator=(LastTile&& o) noexcept {
+      key = o.key;
+      tile = std::exchange(o.tile, nullptr);
+      return *this;
+    }
+  };
+  LastTile last_;
   std::vector<TileKey> dirty_;
   // Directory over tiles [dir_tx0_, dir_tx0_ + dir_w_) x [dir_ty0_, dir_ty0_ + dir_h_).
   /// [level][tile] score arrays; missing tiles and the extra last entry point at unknown_tile_.

@@ -61,6 +61,13 @@ struct LoopClosureConfig {
   /// closures, 2 cm / 0.2 deg 15 MB at the same accuracy; docs/benchmarks.md).
   double move_min_xy = 0.02;        ///< metres
   double move_min_theta_deg = 0.2;  ///< degrees
+  /// 0 (default): the search for a closure at key scan k runs and is applied at key k, on the
+  /// calling thread. N > 0: it runs on a worker thread and its result is applied (graph edge,
+  /// optimisation, map re-write) when key scan k + N is added, never earlier, waiting for the
+  /// worker if needed, so the trajectory does not depend on thread timing. At most `every`.
+  /// Not the default: on CSAIL (laser only) seed 4 it broke the trajectory with N = 3 and 5
+  /// (docs/benchmarks.md, "SLAM speed").
+  int defer_keys = 0;
   void validate() const;
 };
 

@@ -13,6 +13,7 @@
 // closure over a pose graph of the inserted scans.
 
 #include <cstdint>
+#include <future>
 #include <optional>
 #include <vector>
 
@@ -102,6 +103,9 @@ struct SlamState {
   std::size_t loop_closures = 0;
   std::size_t loop_rejected = 0;
   std::optional<LoopEvent> last_loop;
+  /// A loop-closure search started at this key scan whose result is not applied yet
+  /// (LoopClosureConfig::defer_keys); restore() starts it again.
+  std::optional<std::size_t> pending_loop_key;
 };
 
 class Slam {
@@ -135,9 +139,16 @@ class Slam {
   /// replaces step.pose and step.fitness when it finds a clearly more consistent pose.
   void recover(const LaserScan& scan, const ScanPoints& points, const MotionState& motion,
                const Pose2& predicted, SlamStep& step);
-  /// Adds the scan just inserted as a key scan (graph node + edge to the previous one) and
-  /// tries a loop closure; returns true when the graph was re-optimised.
+  /// Adds the scan just inserted as a key scan (graph node + edge to the previous one),
+  /// applies a deferred loop-closure search that is due and starts a new one when it is time;
+  /// returns true when the graph was re-optimised.
   bool add_key_scan(const ScanPoints& points, const Pose2& pose, double stamp);
+  /// Starts the loop-closure search for key scan k against the older key scans at their
+  /// current graph poses (a copy of the few it needs; on a worker thread when deferred).
+  void start_loop_search(std::size_t k);
+  /// Waits for the pending search and turns its match, if any, into a graph edge; returns
+  /// true when the closure was accepted and the graph re-optimised.
+  bool finish_loop_search();
   /// Moves every key scan whose optimised pose differs from where it is in the map, and
   /// re-derives the trajectory from the optimised key poses.
   void apply_graph();
@@ -158,6 +169,12 @@ class Slam {
   std::size_t loop_closures_ = 0;
   std::size_t loop_rejected_ = 0;
   std::optional<LoopEvent> last_loop_;
+  struct PendingLoop {
+    std::size_t key = 0;
+    Pose2 estimate;  ///< key scan `key`'s graph pose when the search started
+    std::future<std::optional<LoopMatch>> match;
+  };
+  std::optional<PendingLoop> pending_loop_;
 };
 
 }  // namespace esfleet

@@ -8,15 +8,19 @@
 // little-endian integers and IEEE doubles/floats, then the 64-bit FNV-1a of everything before
 // it. The map stores every tile as key, version and its counters encoded with tile_codec
 // (kMedZlib). Decoding checks the magic, every length against what is left, and the checksum,
-// and throws SnapshotError naming the field ("keys[3].points.x: truncated").
+// and throws SnapshotError naming the field ("keys[3].points.x: truncated"). The SLAM blob ends
+// with the key of a pending loop-closure search when there is one (SlamState::pending_loop_key).
 
 #include <cstdint>
 #include <stdexcept>
 #include <string>
 #include <string_view>
 
+#include <vector>
+
 #include "esfleet/core/grid_map.hpp"
 #include "esfleet/core/slam.hpp"
+#include "esfleet/core/tile_codec.hpp"
 
 namespace esfleet {
 
@@ -28,6 +32,16 @@ class SnapshotError : public std::runtime_error {
 
 /// Every tile of `map`: key, version, encoded counters (plus the layout: cell size, tile edge).
 std::string encode_map_snapshot(const GridMap& map);
+/// One tile of a map snapshot, its counters already encoded (kMedZlib).
+struct SnapshotTile {
+  TileKey key;
+  std::uint64_t version = 0;
+  const EncodedTile* encoded = nullptr;
+};
+/// The same bytes as encode_map_snapshot of a map with these tiles (sorted by key), for a
+/// writer that keeps the encoded tiles of earlier snapshots and encodes only the changed ones.
+std::string encode_map_snapshot(double cell_size, int tile_edge,
+                                const std::vector<SnapshotTile>& tiles);
 /// Puts the tiles of a map snapshot into `map` (GridMap::set_tile, not marked dirty). The
 /// snapshot's cell size and tile edge must equal the map's. Throws SnapshotError.
 void decode_map_snapshot(std::string_view bytes, GridMap& map);
