@@ -94,16 +94,21 @@ void add_slam_params(ParamTable& t, SlamConfig* s, CarmenReaderOptions* r) {
                "known cells)");
   t.add_double("recovery_min_gain", &s->recovery.min_gain,
                "a weak tracked pose gives way to the recovered one when its consistency with "
-               "the map is higher by this plus recovery_gain_per_metre per metre between them");
-  t.add_double("recovery_gain_per_metre", &s->recovery.gain_per_metre, "... see recovery_min_gain");
+               "the map is higher by this plus recovery_gain_per_window times the jump relative to "
+               "the search window");
+  t.add_double("recovery_gain_per_window", &s->recovery.gain_per_window,
+               "... see recovery_min_gain");
   t.add_double("recovery_min_gain_fair", &s->recovery.min_gain_fair,
                "as recovery_min_gain for a tracked pose that was not weak (searched because of "
                "a large motion)");
-  t.add_double("recovery_gain_per_metre_fair", &s->recovery.gain_per_metre_fair,
+  t.add_double("recovery_gain_per_window_fair", &s->recovery.gain_per_window_fair,
                "... see recovery_min_gain_fair");
   t.add_double("recovery_window_min_scale", &s->recovery.window_min_scale,
                "the recovery window shrinks with the largest of the last 5 inter-scan motions "
                "(1 m or 45 degrees = the whole window), to at least this share of it");
+  t.add_double("recovery_weak_min_scale", &s->recovery.weak_min_scale,
+               "a weak match triggers the recovery search only when the recent motion is at "
+               "least this share of 1 m or 45 degrees per scan");
   t.add_double("recovery_wide_motion_xy", &s->recovery.wide_motion_xy,
                "the recovery search also runs when the predicted motion is this long, metres "
                "(0 = never)");

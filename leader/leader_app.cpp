@@ -320,6 +320,15 @@ int LeaderApp::run() {
   const app::Summary ms = app::summarize(stats.ms_per_scan);
   spdlog::info("{} scans in {:.1f} s: {:.2f} ms/scan median, {:.2f} p95, {:.2f} max; wrote {}",
                stats.scans, stats.wall_s, ms.median, ms.p95, ms.max, o_.out_dir);
+  // Many weak matches usually mean the scans are far apart (a key-scan log, dropped scans, a
+  // fast robot): say what helps.
+  if (!slam_.config().recovery.enabled && stats.scans >= 20 &&
+      stats.weak_matches * 10 >= stats.scans) {
+    spdlog::warn(
+        "{} of {} scans agreed poorly with the map: if the scans are far apart (key scans, "
+        "dropped scans, a fast robot), try --recovery on (docs/slam.md)",
+        stats.weak_matches, stats.scans);
+  }
   if (publisher_ && !stats.interrupted) serve(stats);
   if (publisher_ && !publisher_->flush(std::chrono::seconds(2))) {
     spdlog::warn("not every follower acknowledged the last samples");

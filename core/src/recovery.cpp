@@ -17,8 +17,8 @@ void RecoveryConfig::validate() const {
   check(in01(weak_agreement), "weak_agreement must be in [0, 1]");
   check(in01(min_known), "min_known must be in [0, 1]");
   check(in01(min_gain) && in01(min_gain_fair), "min_gain and min_gain_fair must be in [0, 1]");
-  check(gain_per_metre >= 0.0 && gain_per_metre_fair >= 0.0,
-        "gain_per_metre and gain_per_metre_fair must be >= 0");
+  check(gain_per_window >= 0.0 && gain_per_window_fair >= 0.0,
+        "gain_per_window and gain_per_window_fair must be >= 0");
   check(in01(insert_min_agreement), "insert_min_agreement must be in [0, 1]");
   check(wide_motion_xy >= 0.0 && wide_motion_theta_deg >= 0.0,
         "wide_motion_xy and wide_motion_theta must be >= 0 (0 = off)");
@@ -26,6 +26,7 @@ void RecoveryConfig::validate() const {
   check(window_scale_xy > 0.0 && window_scale_theta_deg > 0.0,
         "window_scale_xy and window_scale_theta must be > 0");
   check(window_min_scale > 0.0 && window_min_scale <= 1.0, "window_min_scale must be in (0, 1]");
+  check(weak_min_scale >= 0.0 && weak_min_scale <= 1.0, "weak_min_scale must be in [0, 1]");
   check(free_penalty >= 0.0 && free_penalty <= 10.0, "free_penalty must be in [0, 10]");
   check(window_xy > 0.0 && window_xy <= 20.0, "window_xy must be in (0, 20] metres");
   check(window_theta_deg > 0.0 && window_theta_deg <= 180.0,

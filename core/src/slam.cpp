@@ -125,11 +125,9 @@ void Slam::recover(const LaserScan& scan, const ScanPoints& points, const Motion
        (rc.wide_motion_theta_deg > 0.0 &&
         std::abs(motion_step.theta) >= deg_to_rad(rc.wide_motion_theta_deg)));
   if (!weak && !wide) return;
-  step.recovery_tried = true;
   // The window scales with the largest recent motion (1 m or 45 degrees per scan = all of it,
   // at least window_min_scale): a robot creeping 10 cm per scan cannot be 1.5 m off. No motion
   // seen yet (the second scan): all of it.
-  RecoveryConfig scaled = rc;
   const std::size_t n = trajectory_.size();
   double scale = n < 2 ? 1.0 : rc.window_min_scale;
   for (std::size_t i = n > kScaleSteps ? n - kScaleSteps : 1; i < n; ++i) {
@@ -138,6 +136,11 @@ void Slam::recover(const LaserScan& scan, const ScanPoints& points, const Motion
                                 std::abs(d.theta) / deg_to_rad(rc.window_scale_theta_deg));
   }
   scale = std::min(scale, 1.0);
+  // A weak match while the robot moves little per scan is clutter or a featureless stretch,
+  // which the tracking's motion prior handles better than a jump.
+  if (!wide && scale < rc.weak_min_scale) return;
+  step.recovery_tried = true;
+  RecoveryConfig scaled = rc;
   scaled.window_xy *= scale;
   scaled.window_theta_deg *= scale;
   // Centred on the predicted position with the previous heading: a turn is what a prediction
@@ -148,13 +151,15 @@ void Slam::recover(const LaserScan& scan, const ScanPoints& points, const Motion
   const RecoveryResult r =
       recover_pose(scaled, config_.tracking, es_, rng, map_, points,
                    {predicted.x, predicted.y, motion.last.pose.theta}, predicted);
-  // The farther the jump from the tracked pose, the clearer its gain in consistency must be.
+  // The farther the jump from the tracked pose (relative to the window), the clearer its gain
+  // in consistency must be.
   const float gain = consistency(map_, points, r.result.pose).score() -
                      consistency(map_, points, step.pose).score();
   const Pose2 jump = r.result.pose.relative_to(step.pose);
-  const double d = std::hypot(jump.x, jump.y) + std::abs(jump.theta);
+  const double d = std::hypot(jump.x, jump.y) / scaled.window_xy +
+                   std::abs(jump.theta) / deg_to_rad(scaled.window_theta_deg);
   const double needed =
-      weak ? rc.min_gain + rc.gain_per_metre * d : rc.min_gain_fair + rc.gain_per_metre_fair * d;
+      weak ? rc.min_gain + rc.gain_per_window * d : rc.min_gain_fair + rc.gain_per_window_fair * d;
   if (r.result.value.known_share() >= rc.min_known && gain >= needed) {
     step.recovered = true;
     step.pose = r.result.pose;

@@ -103,7 +103,6 @@ TEST(Recovery, ValidateNamesTheField) {
     EXPECT_NE(std::string(e.what()).find("slam.recovery_window_theta"), std::string::npos);
   }
   EXPECT_FALSE(SlamConfig::paper().recovery.enabled);
-  EXPECT_TRUE(SlamConfig{}.recovery.enabled);
 }
 
 /// Scans along a path in the room, every `every`-th kept: the SLAM's pose error at the end.
