@@ -66,7 +66,7 @@ program, what it is for and which codes it uses, then its `--help` as it prints 
 - [esfleet-sim](#esfleet-sim)
 - [esfleet-replay](#esfleet-replay)
 - [esfleet-bench](#esfleet-bench) (`slam`, `localise`, `occupancy`, `occupancy-truth`,
-  `generalise`)
+  `noisy-odometry`, `generalise`)
 - [esfleet-eval](#esfleet-eval)
 - [esfleet-map-png](#esfleet-map-png)
 
@@ -154,7 +154,8 @@ scan (the paper's configuration and the default pipeline, in one process); `loca
 follower global localisation, tracking and kidnap recovery in the leader's map of a log;
 `occupancy` reads a saved `map.yaml` as `map_server` does and counts where the leader's own scan
 end points land in it (occupied, free, unknown); `occupancy-truth` scores a simulated run's map
-against the world's true walls (precision, recall); `generalise` runs the SLAM on sparse scans
+against the world's true walls (precision, recall); `noisy-odometry` rewrites a log's odometry
+as seeded noisy wheel odometry (esfleet-sim's log format, the source poses as truth); `generalise` runs the SLAM on sparse scans
 (the CSAIL key-scan log, CSAIL and fr079 kept every k-th scan), laser only and with noisy
 odometry, over seeds, and scores it on relations. Figures on stdout and in a JSON file.
 Exit codes: 0 done; 1 the results (or the trace) could not be written, or the relations file
@@ -187,6 +188,12 @@ cat <<'TEXT'
 
 TEXT
 help_block esfleet-bench occupancy-truth
+cat <<'TEXT'
+
+### esfleet-bench noisy-odometry
+
+TEXT
+help_block esfleet-bench noisy-odometry
 cat <<'TEXT'
 
 ### esfleet-bench generalise
