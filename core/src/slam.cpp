@@ -148,9 +148,8 @@ void Slam::recover(const LaserScan& scan, const ScanPoints& points, const Motion
   // Its own draws, from the seed and the scan's index: the tracking's stream stays the same
   // whether or not the search ran, and a resumed run draws the same.
   Rng rng(config_.seed * 0x9E3779B97F4A7C15ULL + trajectory_.size());
-  const RecoveryResult r =
-      recover_pose(scaled, config_.tracking, es_, rng, map_, points,
-                   {predicted.x, predicted.y, motion.last.pose.theta}, predicted);
+  const RecoveryResult r = recover_pose(scaled, config_.tracking, es_, rng, map_, points,
+                                        {predicted.x, predicted.y, motion.last.pose.theta});
   // The farther the jump from the tracked pose (relative to the window), the clearer its gain
   // in consistency must be.
   const float gain = consistency(map_, points, r.result.pose).score() -

@@ -31,8 +31,7 @@ TEST(Recovery, FindsAPoseFarOutsideTheTrackingReach) {
   TrackingConfig tracking;
   const EvolutionStrategy es(tracking.es);
   Rng rng(7);
-  const RecoveryResult r =
-      recover_pose(config, tracking, es, rng, map, points, predicted, predicted);
+  const RecoveryResult r = recover_pose(config, tracking, es, rng, map, points, predicted);
   EXPECT_GT(r.coarse_poses, 1000);
   ASSERT_FALSE(r.coarse.empty());
   EXPECT_NEAR(r.result.pose.x, truth.x, 0.05) << "seed 7";
@@ -52,8 +51,7 @@ TEST(Recovery, OutsideTheWindowItFindsNothingBetter) {
   TrackingConfig tracking;
   const EvolutionStrategy es(tracking.es);
   Rng rng(7);
-  const RecoveryResult r =
-      recover_pose(config, tracking, es, rng, map, points, predicted, predicted);
+  const RecoveryResult r = recover_pose(config, tracking, es, rng, map, points, predicted);
   EXPECT_GT(std::hypot(r.result.pose.x - truth.x, r.result.pose.y - truth.y), 1.0);
   EXPECT_LT(consistency(map, points, r.result.pose).score(),
             consistency(map, points, truth).score() - 0.2f);

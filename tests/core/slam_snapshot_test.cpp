@@ -28,6 +28,17 @@ SlamConfig test_config() {
   return c;
 }
 
+/// The resumed Slam's map, trajectory and loop closures equal the uninterrupted one's.
+void expect_same_run(const Slam& resumed, const Slam& straight) {
+  EXPECT_EQ(map_digest(resumed.map()), map_digest(straight.map()));
+  ASSERT_EQ(resumed.trajectory().size(), straight.trajectory().size());
+  for (std::size_t i = 0; i < straight.trajectory().size(); ++i) {
+    EXPECT_EQ(resumed.trajectory()[i].pose.x, straight.trajectory()[i].pose.x) << i;
+    EXPECT_EQ(resumed.trajectory()[i].pose.theta, straight.trajectory()[i].pose.theta) << i;
+  }
+  EXPECT_EQ(resumed.loop_closures(), straight.loop_closures());
+}
+
 TEST(SlamSnapshot, RestoredSlamContinuesBitIdentically) {
   const std::vector<LaserScan> scans = csail_scans(300);
   ASSERT_EQ(scans.size(), 300u);
@@ -48,13 +59,7 @@ TEST(SlamSnapshot, RestoredSlamContinuesBitIdentically) {
   EXPECT_GT(resumed.key_scans(), 10u);
   for (std::size_t i = cut; i < scans.size(); ++i) resumed.process(scans[i]);
 
-  EXPECT_EQ(map_digest(resumed.map()), map_digest(straight.map()));
-  ASSERT_EQ(resumed.trajectory().size(), straight.trajectory().size());
-  for (std::size_t i = 0; i < scans.size(); ++i) {
-    EXPECT_EQ(resumed.trajectory()[i].pose.x, straight.trajectory()[i].pose.x) << i;
-    EXPECT_EQ(resumed.trajectory()[i].pose.theta, straight.trajectory()[i].pose.theta) << i;
-  }
-  EXPECT_EQ(resumed.loop_closures(), straight.loop_closures());
+  expect_same_run(resumed, straight);
   // Tile versions survive too.
   for (const TileKey k : straight.map().tile_keys()) {
     EXPECT_EQ(resumed.map().find_tile(k)->version, straight.map().find_tile(k)->version);
@@ -89,13 +94,7 @@ TEST(SlamSnapshot, APendingDeferredLoopSearchIsSavedAndRestarted) {
   resumed.restore(decode_slam_state(slam_blob));
   ASSERT_TRUE(resumed.state().pending_loop_key.has_value());
   for (std::size_t i = cut; i < scans.size(); ++i) resumed.process(scans[i]);
-  EXPECT_EQ(map_digest(resumed.map()), map_digest(straight.map()));
-  ASSERT_EQ(resumed.trajectory().size(), straight.trajectory().size());
-  for (std::size_t i = 0; i < scans.size(); ++i) {
-    EXPECT_EQ(resumed.trajectory()[i].pose.x, straight.trajectory()[i].pose.x) << i;
-    EXPECT_EQ(resumed.trajectory()[i].pose.theta, straight.trajectory()[i].pose.theta) << i;
-  }
-  EXPECT_EQ(resumed.loop_closures(), straight.loop_closures());
+  expect_same_run(resumed, straight);
 }
 
 TEST(SlamSnapshot, DamageIsReportedWithTheField) {

@@ -58,10 +58,6 @@ struct RecoveryConfig {
   /// What an end point on a known free cell scores in the coarse and fine stages (an occupied
   /// cell scores its map value, an unknown one 0).
   double free_penalty = 0.5;
-  /// Candidates are ranked by their consistency less this per metre from the prediction
-  /// (metres plus radians of turn).
-  /// 0.1 measured worse on the key-scan log (seeds 1-3: 5.2-9.6 m against 0.4-1.7 m).
-  double prior_per_metre = 0.0;
   int candidates = 8;        ///< distinct coarse poses refined
   double distinct_xy = 0.3;  ///< coarse poses closer than this (and distinct_theta) are one
   double distinct_theta_deg = 5.0;
@@ -104,12 +100,12 @@ struct RecoveryResult {
 };
 
 /// The correlative search around `centre` (Slam: the predicted position with the previous
-/// heading, as a turn is what a prediction gets most wrong), candidates ranked with a prior
-/// around `predicted`, finished by `es` with `tracking`'s fitness. Draws
+/// heading, as a turn is what a prediction gets most wrong), finished by `es` with
+/// `tracking`'s fitness. Draws
 /// from `rng`. Returns nothing useful (coarse empty, result.value all zero) when the map has
 /// nothing known in the window.
 RecoveryResult recover_pose(const RecoveryConfig& config, const TrackingConfig& tracking,
                             const EvolutionStrategy& es, Rng& rng, const GridMap& map,
-                            const ScanPoints& points, const Pose2& centre, const Pose2& predicted);
+                            const ScanPoints& points, const Pose2& centre);
 
 }  // namespace esfleet
