@@ -4,7 +4,7 @@
 // Every input must load into a consistent OccupancyImage or throw std::runtime_error; anything
 // else (a crash, a sanitizer report, another exception, an inconsistent image) is a finding.
 // The CRCs of a PNG's chunks are recomputed before loading (the loader refuses a bad CRC), so
-// that mutated chunk contents reach libpng through OpenCV instead of stopping at the CRC check.
+// that mutated chunk contents reach libpng instead of stopping at the CRC check.
 
 #include <cmath>
 #include <cstddef>

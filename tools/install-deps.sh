@@ -4,7 +4,7 @@
 set -euo pipefail
 packages=(
   build-essential cmake pkg-config python3
-  libeigen3-dev libopencv-dev zlib1g-dev
+  libeigen3-dev libopencv-dev zlib1g-dev libpng-dev
   libcli11-dev libspdlog-dev libyaml-cpp-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libfastrtps-dev libfastcdr-dev fastddsgen fastdds-tools default-jre-headless

@@ -3,14 +3,11 @@
 #include <zlib.h>
 
 #include <algorithm>
-#include <limits>
 #include <stdexcept>
 #include <string_view>
 
-#include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
-
 #include "esfleet/core/ros_map_format.hpp"
+#include "png_io.hpp"
 
 namespace esfleet::detail {
 namespace {
@@ -140,8 +137,8 @@ std::uint64_t be32(std::string_view d, std::size_t at) {
 }
 
 /// Checks a PNG's chunk structure (lengths, CRCs, IHDR fields, IDAT and IEND present) and
-/// that the file could hold its raster, so that libpng, which prints its complaints to stderr,
-/// only ever sees well-formed files and OpenCV never allocates for a lying header.
+/// that the file could hold its raster, so that libpng only ever sees well-formed files and
+/// nothing allocates for a lying header.
 void check_png(const std::string& path, std::string_view data) {
   const auto bad = [&](const std::string& what) {
     return std::runtime_error(path + ": bad PNG image: " + what);
@@ -209,36 +206,10 @@ void check_png(const std::string& path, std::string_view data) {
 
 Pixels decode_png(const std::string& path, const std::string& data) {
   check_png(path, data);
-  const std::uint64_t w = be32(data, 16), h = be32(data, 20);
-  cv::Mat img;
-  try {
-    const cv::Mat buf(
-        1, static_cast<int>(std::min<std::size_t>(data.size(), std::numeric_limits<int>::max())),
-        CV_8UC1, const_cast<char*>(data.data()));
-    img = cv::imdecode(buf, cv::IMREAD_UNCHANGED);
-    if (!img.empty() && img.depth() == CV_16U) {
-      cv::Mat eight;
-      img.convertTo(eight, CV_8U, 1.0 / 257.0);
-      img = eight;
-    }
-  } catch (const cv::Exception& e) {
-    throw std::runtime_error(path + ": cannot decode PNG image: " + e.what());
-  }
-  if (img.empty()) throw std::runtime_error(path + ": cannot decode PNG image");
-  if (img.depth() != CV_8U || img.channels() < 1 || img.channels() > 4) {
-    throw std::runtime_error(path + ": unsupported PNG sample format");
-  }
-  if (static_cast<std::uint64_t>(img.cols) != w || static_cast<std::uint64_t>(img.rows) != h) {
+  Pixels px = read_png(path, data);
+  if (static_cast<std::uint64_t>(px.width) != be32(data, 16) ||
+      static_cast<std::uint64_t>(px.height) != be32(data, 20)) {
     throw std::runtime_error(path + ": PNG decoded to a size other than its header's");
-  }
-  Pixels px;
-  px.width = img.cols;
-  px.height = img.rows;
-  px.channels = img.channels();
-  const std::size_t row_bytes = static_cast<std::size_t>(img.cols) * px.channels;
-  px.data.resize(row_bytes * static_cast<std::size_t>(img.rows));
-  for (int r = 0; r < img.rows; ++r) {
-    std::copy_n(img.ptr<std::uint8_t>(r), row_bytes, px.data.data() + row_bytes * r);
   }
   return px;
 }

@@ -1,6 +1,6 @@
 #pragma once
 // Private to core: decoding the map images load_ros_map reads (PGM P5/P2 by hand, PNG through
-// OpenCV after a structural check), into 8-bit samples, refusing hostile input with a message
+// libpng after a structural check), into 8-bit samples, refusing hostile input with a message
 // instead of crashing or allocating for a lying header.
 
 #include <cstdint>
@@ -10,7 +10,7 @@
 namespace esfleet::detail {
 
 /// A decoded image, 8 bits per sample, interleaved, rows from the top. Channel orders: 1 grey,
-/// 2 grey+alpha, 3 BGR, 4 BGRA (OpenCV's).
+/// 2 grey+alpha, 3 RGB, 4 RGBA.
 struct Pixels {
   int width = 0;
   int height = 0;

@@ -1,21 +1,28 @@
 #include "esfleet/core/map_png.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdlib>
 #include <stdexcept>
 
-#include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
-
 #include "esfleet/core/file_io.hpp"
+#include "image_decoder.hpp"
 #include "map_raster.hpp"
+#include "png_io.hpp"
 
 namespace esfleet {
 namespace {
 
+struct Point {
+  double x = 0.0;
+  double y = 0.0;
+};
+
+using Rgb = std::array<std::uint8_t, 3>;
+
 /// Clips the segment a-b to the rectangle [0, w] x [0, h] (Liang-Barsky); false if it misses.
-bool clip_segment(cv::Point2d& a, cv::Point2d& b, double w, double h) {
+bool clip_segment(Point& a, Point& b, double w, double h) {
   const double dx = b.x - a.x, dy = b.y - a.y;
   double t0 = 0.0, t1 = 1.0;
   const double p[4] = {-dx, dx, -dy, dy};
@@ -33,49 +40,110 @@ bool clip_segment(cv::Point2d& a, cv::Point2d& b, double w, double h) {
     }
     if (t0 > t1) return false;
   }
-  const cv::Point2d a0 = a;
-  a = a0 + t0 * (b - a0);
-  b = a0 + t1 * (b - a0);
+  const Point a0 = a;
+  a = {a0.x + t0 * dx, a0.y + t0 * dy};
+  b = {a0.x + t1 * dx, a0.y + t1 * dy};
   // Poses near the double range can overflow on the way: drop such segments.
   return std::isfinite(a.x) && std::isfinite(a.y) && std::isfinite(b.x) && std::isfinite(b.y);
 }
 
-cv::Mat draw_map(const GridMap& map, const std::vector<TimedPose>& trajectory,
-                 const OccupancyThresholds& th, const std::string& path) {
+/// An RGB image, rows from the top, with the two shapes the map PNG draws.
+class Canvas {
+ public:
+  Canvas(int width, int height)
+      : px_{width, height, 3,
+            std::vector<std::uint8_t>(static_cast<std::size_t>(width) * height * 3)} {}
+
+  void set(int col, int row, const Rgb& c) {
+    if (col < 0 || row < 0 || col >= px_.width || row >= px_.height) return;
+    const std::size_t i = (static_cast<std::size_t>(row) * px_.width + col) * 3;
+    std::copy(c.begin(), c.end(), px_.data.begin() + static_cast<std::ptrdiff_t>(i));
+  }
+
+  /// An 8-connected 1-pixel line from (c0, r0) to (c1, r1), both ends included (Bresenham).
+  /// The pixel choice is OpenCV's cv::line (LINE_8), which drew these maps before: traversed
+  /// from the left end, a step along the minor axis is taken while the error term is negative.
+  void line(int c0, int r0, int c1, int r1, const Rgb& colour) {
+    if (c1 < c0) {
+      std::swap(c0, c1);
+      std::swap(r0, r1);
+    }
+    const int dc = c1 - c0, dr = std::abs(r1 - r0), step_r = r1 < r0 ? -1 : 1;
+    const bool steep = dr > dc;
+    const int major = steep ? dr : dc, minor = steep ? dc : dr;
+    int err = major - 2 * minor;
+    int c = c0, r = r0;
+    for (int i = 0; i <= major; ++i) {
+      set(c, r, colour);
+      const bool minor_step = err < 0;
+      err -= 2 * minor;
+      if (minor_step) err += 2 * major;
+      if (steep) {
+        r += step_r;
+        if (minor_step) ++c;
+      } else {
+        ++c;
+        if (minor_step) r += step_r;
+      }
+    }
+  }
+
+  /// A filled disc: the pixels within `radius` of the centre pixel (dx^2 + dy^2 <= radius^2;
+  /// for radius 3 the same pixels as OpenCV's filled cv::circle).
+  void disc(int col, int row, int radius, const Rgb& colour) {
+    for (int dr = -radius; dr <= radius; ++dr) {
+      for (int dc = -radius; dc <= radius; ++dc) {
+        if (dc * dc + dr * dr <= radius * radius) set(col + dc, row + dr, colour);
+      }
+    }
+  }
+
+  std::uint8_t* row(int r) { return px_.data.data() + static_cast<std::size_t>(r) * px_.width * 3; }
+  const detail::Pixels& pixels() const { return px_; }
+
+ private:
+  detail::Pixels px_;
+};
+
+Canvas draw_map(const GridMap& map, const std::vector<TimedPose>& trajectory,
+                const OccupancyThresholds& th, const std::string& path) {
   const detail::Raster r = detail::render(map, th, path);
-  cv::Mat img(r.height, r.width, CV_8UC3);
+  Canvas img(r.width, r.height);
   const int u = kUnknownLevel;
-  const cv::Vec3b tint(static_cast<std::uint8_t>(std::min(u + 15, 255)),
-                       static_cast<std::uint8_t>(u),
-                       static_cast<std::uint8_t>(std::max(u - 15, 0)));  // BGR
+  const Rgb tint{static_cast<std::uint8_t>(std::max(u - 15, 0)), static_cast<std::uint8_t>(u),
+                 static_cast<std::uint8_t>(std::min(u + 15, 255))};
   for (int row = 0; row < r.height; ++row) {
-    auto* out = img.ptr<cv::Vec3b>(row);
+    std::uint8_t* out = img.row(row);
     for (int col = 0; col < r.width; ++col) {
       const auto j = static_cast<std::size_t>(row) * r.width + col;
       const std::uint8_t x = r.grey[j];
-      out[col] = r.known[j] ? cv::Vec3b(x, x, x) : tint;
+      const Rgb c = r.known[j] ? Rgb{x, x, x} : tint;
+      std::copy(c.begin(), c.end(), out + 3 * col);
     }
   }
 
   // Continuous image coordinates of a pose: pixel (c, r) covers [c, c+1) x [r, r+1).
   const double cs = map.cell_size();
   const auto to_image = [&](const Pose2& p) {
-    return cv::Point2d(p.x / cs - r.min.x, (r.max_y + 1.0) - p.y / cs);
+    return Point{p.x / cs - r.min.x, (r.max_y + 1.0) - p.y / cs};
   };
-  const auto finite = [](const cv::Point2d& p) { return std::isfinite(p.x) && std::isfinite(p.y); };
-  const auto pixel = [&](const cv::Point2d& p) {
-    return cv::Point(std::clamp(static_cast<int>(std::floor(p.x)), 0, r.width - 1),
-                     std::clamp(static_cast<int>(std::floor(p.y)), 0, r.height - 1));
+  const auto finite = [](const Point& p) { return std::isfinite(p.x) && std::isfinite(p.y); };
+  const auto col_of = [&](const Point& p) {
+    return std::clamp(static_cast<int>(std::floor(p.x)), 0, r.width - 1);
   };
-  const auto inside = [&](const cv::Point2d& p) {
+  const auto row_of = [&](const Point& p) {
+    return std::clamp(static_cast<int>(std::floor(p.y)), 0, r.height - 1);
+  };
+  const auto inside = [&](const Point& p) {
     return p.x >= 0.0 && p.x < r.width && p.y >= 0.0 && p.y < r.height;
   };
   const double w = r.width, h = r.height;
-  const cv::Scalar red(0, 0, 255), green(0, 255, 0), blue(255, 0, 0);
+  constexpr Rgb kRed{255, 0, 0}, kGreen{0, 255, 0}, kBlue{0, 0, 255};
+  constexpr int kMarkerRadius = 3;
   bool have_prev = false, have_first = false;
-  cv::Point2d prev, first, last;
+  Point prev, first, last;
   for (const TimedPose& tp : trajectory) {
-    const cv::Point2d p = to_image(tp.pose);
+    const Point p = to_image(tp.pose);
     if (!finite(p)) {
       have_prev = false;
       continue;
@@ -85,13 +153,13 @@ cv::Mat draw_map(const GridMap& map, const std::vector<TimedPose>& trajectory,
       have_first = true;
     }
     last = p;
-    cv::Point2d a = have_prev ? prev : p, b = p;
-    if (clip_segment(a, b, w, h)) cv::line(img, pixel(a), pixel(b), red, 1, cv::LINE_8);
+    Point a = have_prev ? prev : p, b = p;
+    if (clip_segment(a, b, w, h)) img.line(col_of(a), row_of(a), col_of(b), row_of(b), kRed);
     prev = p;
     have_prev = true;
   }
-  if (have_first && inside(first)) cv::circle(img, pixel(first), 3, green, cv::FILLED, cv::LINE_8);
-  if (have_first && inside(last)) cv::circle(img, pixel(last), 3, blue, cv::FILLED, cv::LINE_8);
+  if (have_first && inside(first)) img.disc(col_of(first), row_of(first), kMarkerRadius, kGreen);
+  if (have_first && inside(last)) img.disc(col_of(last), row_of(last), kMarkerRadius, kBlue);
   return img;
 }
 
@@ -99,16 +167,14 @@ cv::Mat draw_map(const GridMap& map, const std::vector<TimedPose>& trajectory,
 
 void save_map_png(const GridMap& map, const std::vector<TimedPose>& trajectory,
                   const std::string& path, const OccupancyThresholds& th) {
-  const cv::Mat img = draw_map(map, trajectory, th, path);
-  std::vector<std::uint8_t> png;
+  const Canvas img = draw_map(map, trajectory, th, path);
+  std::string png;
   try {
-    if (!cv::imencode(".png", img, png)) {
-      throw std::runtime_error("cannot write '" + path + "': PNG encoding failed");
-    }
-  } catch (const cv::Exception& e) {
-    throw std::runtime_error("cannot write '" + path + "': PNG encoding failed: " + e.what());
+    png = detail::write_png(img.pixels());
+  } catch (const std::exception& e) {
+    throw std::runtime_error("cannot write '" + path + "': " + e.what());
   }
-  write_file_atomically(path, std::string(png.begin(), png.end()));
+  write_file_atomically(path, png);
 }
 
 }  // namespace esfleet

@@ -23,7 +23,7 @@ using testing::make_test_map;
 using MapPngTest = testing::MapFilesTest;
 namespace fs = std::filesystem;
 
-// --- A minimal PNG reader for 8-bit RGB, non-interlaced (what OpenCV writes for CV_8UC3) ---
+// --- A minimal PNG reader for 8-bit RGB, non-interlaced (what save_map_png writes) ---
 
 std::uint32_t be32(const std::string& d, std::size_t at) {
   std::uint32_t v = 0;

@@ -39,8 +39,9 @@ struct OccupancyImage {
 ///    0 <= free < occupied <= 1); optional mode: trinary (default) | scale | raw. Other keys
 ///    are ignored, as map_server does.
 ///  - image: PGM (P5 binary or P2 ascii, maxval 1..65535, '#' comments in the header) or PNG
-///    (OpenCV, grey / grey+alpha / RGB / RGBA, 8 or 16 bit); 16-bit and maxval != 255 samples
-///    are scaled to 8 bits first. Other formats are refused.
+///    (libpng, grey / grey+alpha / RGB / RGBA / palette, 1 to 16 bit; a tRNS chunk gives RGB and
+///    palette images an alpha channel); 16-bit and maxval != 255 samples are scaled to 8 bits
+///    first. Other formats are refused.
 ///  - shade = mean of the colour channels / 255 (in trinary mode alpha joins the mean);
 ///    occ = negate ? shade : 1 - shade. trinary: occ > occupied_thresh -> 100,
 ///    occ < free_thresh -> 0, else -1. scale: a not fully opaque pixel -> -1, then as trinary
