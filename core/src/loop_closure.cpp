@@ -57,7 +57,7 @@ std::optional<LoopMatch> find_loop_closure(const std::vector<KeyScan>& keys,
   submap_config.pyramid_levels = std::max(map_config.pyramid_levels, kCoarseLevel);
   GridMap submap(submap_config);
   for (const auto& [d, k] : near) {
-    update_map(submap, keys[k].points, poses[k], update_config, false, false);
+    update_map(submap, *keys[k].points, poses[k], update_config, false, false);
   }
   submap.commit_update();
 

@@ -169,7 +169,7 @@ void Slam::recover(const LaserScan& scan, const ScanPoints& points, const Motion
 bool Slam::add_key_scan(const ScanPoints& points, const Pose2& pose, double stamp) {
   KeyScan key;
   key.stamp = stamp;
-  key.points = points;
+  key.points = std::make_shared<const ScanPoints>(points);
   key.mapped_pose = pose;
   key.path_length = path_length_;
   const std::size_t k = graph_.add_node(pose);
@@ -231,7 +231,7 @@ void Slam::start_loop_search(std::size_t k) {
     old_poses.push_back(graph_.node(i));
   }
   auto search = [ids = std::move(ids), old_keys = std::move(old_keys),
-                 old_poses = std::move(old_poses), points = keys_[k].points, estimate, path_length,
+                 old_poses = std::move(old_poses), points = *keys_[k].points, estimate, path_length,
                  lc, map = config_.map, update = config_.update,
                  fitness = slam_fitness_options(
                      config_.tracking, config_.tracking.interpolation !=
@@ -290,8 +290,8 @@ void Slam::apply_graph() {
         std::abs(normalize_angle(now.theta - key.mapped_pose.theta)) < move_theta) {
       continue;
     }
-    update_map(map_, key.points, key.mapped_pose, config_.update, /*remove=*/true, false);
-    update_map(map_, key.points, now, config_.update, false, false);
+    update_map(map_, *key.points, key.mapped_pose, config_.update, /*remove=*/true, false);
+    update_map(map_, *key.points, now, config_.update, false, false);
     key.mapped_pose = now;
     changed = true;
   }

@@ -2,7 +2,9 @@
 
 #include <bit>
 #include <cstring>
+#include <memory>
 #include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "esfleet/core/tile_codec.hpp"
@@ -190,7 +192,7 @@ std::string encode_slam_state(const SlamState& s) {
   std::size_t size = 256 + 32 * s.trajectory.size() + 24 * s.graph_nodes.size() +
                      64 * s.graph_edges.size() + 32 * s.anchors.size();
   for (const KeyScan& k : s.keys) {
-    size += 96 + 4 * (3 * k.points.size() + k.points.no_return_angles.size());
+    size += 96 + 4 * (3 * k.points->size() + k.points->no_return_angles.size());
   }
   out.reserve(size);
   for (const std::uint64_t w : s.rng.s) out.put(w);
@@ -209,10 +211,10 @@ std::string encode_slam_state(const SlamState& s) {
     out.put(k.stamp);
     out.put(k.mapped_pose);
     out.put(k.path_length);
-    out.put(k.points.x);
-    out.put(k.points.y);
-    out.put(k.points.range);
-    out.put(k.points.no_return_angles);
+    out.put(k.points->x);
+    out.put(k.points->y);
+    out.put(k.points->range);
+    out.put(k.points->no_return_angles);
   }
   out.put<std::uint64_t>(s.graph_nodes.size());
   for (const Pose2& p : s.graph_nodes) out.put(p);
@@ -267,13 +269,15 @@ SlamState decode_slam_state(std::string_view bytes) {
     k.stamp = in.get<double>(f + ".stamp");
     k.mapped_pose = in.pose(f + ".mapped_pose");
     k.path_length = in.get<double>(f + ".path_length");
-    k.points.x = in.floats(f + ".points.x");
-    k.points.y = in.floats(f + ".points.y");
-    k.points.range = in.floats(f + ".points.range");
-    k.points.no_return_angles = in.floats(f + ".points.no_return_angles");
-    if (k.points.y.size() != k.points.x.size() || k.points.range.size() != k.points.x.size()) {
+    ScanPoints points;
+    points.x = in.floats(f + ".points.x");
+    points.y = in.floats(f + ".points.y");
+    points.range = in.floats(f + ".points.range");
+    points.no_return_angles = in.floats(f + ".points.no_return_angles");
+    if (points.y.size() != points.x.size() || points.range.size() != points.x.size()) {
       in.fail(f + ".points", "x, y and range differ in length");
     }
+    k.points = std::make_shared<const ScanPoints>(std::move(points));
   }
   s.graph_nodes.resize(in.count("graph_nodes", 24));
   for (std::size_t i = 0; i < s.graph_nodes.size(); ++i) {

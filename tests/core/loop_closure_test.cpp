@@ -29,7 +29,7 @@ Scene old_keys() {
     const Pose2 truth{5.0 + 0.4 * i, 4.0, 0.1 * i};
     KeyScan k;
     k.stamp = i;
-    k.points = prepare_scan(make_scan(world, truth));
+    k.points = std::make_shared<const ScanPoints>(prepare_scan(make_scan(world, truth)));
     k.mapped_pose = truth;
     k.path_length = 0.4 * i;
     s.keys.push_back(std::move(k));

@@ -9,6 +9,7 @@
 // edge.
 
 #include <cstddef>
+#include <memory>
 #include <optional>
 #include <vector>
 
@@ -23,7 +24,10 @@ namespace esfleet {
 /// A scan written into the map, kept so loop closure can match against it and move it.
 struct KeyScan {
   double stamp = 0.0;
-  ScanPoints points;
+  /// Never null and never changed once made: shared by the SLAM and the copies of its state
+  /// (Slam::state(), taken at every checkpoint), which would otherwise duplicate every key
+  /// scan's points (CSAIL: 8 MB).
+  std::shared_ptr<const ScanPoints> points = std::make_shared<const ScanPoints>();
   Pose2 mapped_pose;         ///< the pose its counters are in the map at
   double path_length = 0.0;  ///< distance travelled from the start to here (estimate), metres
 };
