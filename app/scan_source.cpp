@@ -39,10 +39,12 @@ std::vector<LaserScan> read_log(const std::string& path, const CarmenReaderOptio
 }
 
 LogScanSource::LogScanSource(std::vector<LaserScan> scans, double rate)
-    : scans_(std::move(scans)), rate_(rate) {}
+    : scans_(std::move(scans)),
+      first_stamp_(scans_.empty() ? 0.0 : scans_.front().stamp),
+      rate_(rate) {}
 
 std::chrono::steady_clock::time_point LogScanSource::due(std::size_t i) const {
-  const double due_s = (scans_[i].stamp - scans_.front().stamp) / rate_;
+  const double due_s = (scans_[i].stamp - first_stamp_) / rate_;
   return start_ + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                       std::chrono::duration<double>(due_s));
 }
@@ -62,7 +64,9 @@ std::optional<LaserScan> LogScanSource::next(const std::atomic<bool>& stop) {
       std::this_thread::sleep_until(std::min(due, std::chrono::steady_clock::now() + kPoll));
     }
   }
-  return scans_[next_++];
+  // Moved out: a scan handed over is never needed again, so the log's ranges are freed as the
+  // consumer goes (CSAIL: 2.9 MB held to the end otherwise).
+  return std::move(scans_[next_++]);
 }
 
 TopicScanSource::TopicScanSource(dds::Node& node, std::string robot_id, double idle_exit_s,

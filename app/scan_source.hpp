@@ -52,8 +52,9 @@ std::vector<LaserScan> read_log(const std::string& path, const CarmenReaderOptio
                                 std::size_t max_scans, bool use_odometry,
                                 const std::atomic<bool>& stop);
 
-/// The scans of a log read beforehand. With rate > 0, scan i is due (stamp_i - stamp_0) / rate
-/// seconds after the first call of next() (1 = recorded speed); with 0, as fast as asked.
+/// The scans of a log read beforehand, each handed out once (moved out, its memory then the
+/// consumer's). With rate > 0, scan i is due (stamp_i - stamp_0) / rate seconds after the first
+/// call of next() (1 = recorded speed); with 0, as fast as asked.
 class LogScanSource : public ScanSource {
  public:
   LogScanSource(std::vector<LaserScan> scans, double rate);
@@ -66,7 +67,8 @@ class LogScanSource : public ScanSource {
   /// When scan `i` is due (rate > 0; start_ set).
   std::chrono::steady_clock::time_point due(std::size_t i) const;
 
-  std::vector<LaserScan> scans_;
+  std::vector<LaserScan> scans_;  ///< those before next_ are moved out
+  double first_stamp_;
   double rate_;
   std::size_t next_ = 0;
   std::chrono::steady_clock::time_point start_;

@@ -129,10 +129,14 @@ std::uint64_t Checkpointer::write(Job& job) {
   const std::string map_name = "map." + std::to_string(g) + ".bin";
   const std::string slam_name = "slam." + std::to_string(g) + ".bin";
   const std::string map_bytes = encode_map_snapshot(job.cell_size, job.tile_edge, tiles);
-  const std::string slam_bytes = encode_slam_state(job.state);
-  job.state = {};
   write_file_atomically(dir_ + "/" + map_name, map_bytes);
-  write_file_atomically(dir_ + "/" + slam_name, slam_bytes);
+  // Streamed into the file: the key scans make the blob 8 MB on CSAIL, which the leader would
+  // otherwise hold besides the state at every checkpoint.
+  AtomicFile slam_file(dir_ + "/" + slam_name);
+  write_slam_state(job.state, [&](std::string_view piece) { slam_file.write(piece); });
+  slam_file.commit();
+  const std::uint64_t slam_bytes = slam_file.bytes_written();
+  job.state = {};
   const CheckpointInfo& info = job.info;
   const nlohmann::json manifest = {
       {"format", kFormat},
@@ -145,7 +149,7 @@ std::uint64_t Checkpointer::write(Job& job) {
       {"map_file", map_name},
       {"map_bytes", map_bytes.size()},
       {"slam_file", slam_name},
-      {"slam_bytes", slam_bytes.size()},
+      {"slam_bytes", slam_bytes},
       {"tiles", job.tiles.size()},
       {"written_unix_s",
        std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count()},
@@ -160,7 +164,7 @@ std::uint64_t Checkpointer::write(Job& job) {
       fs::remove(e.path(), ec);
     }
   }
-  return map_bytes.size() + slam_bytes.size();
+  return map_bytes.size() + slam_bytes;
 }
 
 std::uint64_t Checkpointer::save(const Slam& slam, const CheckpointInfo& info) {

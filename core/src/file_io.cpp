@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <stdexcept>
 #include <system_error>
+#include <utility>
 
 namespace esfleet {
 namespace {
@@ -19,25 +20,51 @@ std::string errno_text(int err) { return std::error_code(err, std::generic_categ
 }  // namespace
 
 void write_file_atomically(const std::string& path, const std::string& contents) {
+  AtomicFile f(path);
+  f.write(contents);
+  f.commit();
+}
+
+AtomicFile::AtomicFile(std::string path) : path_(std::move(path)) {
   static std::atomic<std::uint64_t> counter{0};
-  const std::string tmp =
-      path + ".tmp." + std::to_string(::getpid()) + "." + std::to_string(counter++);
-  const std::string prefix = "cannot write '" + path + "': ";
-  std::FILE* f = std::fopen(tmp.c_str(), "wb");
-  if (f == nullptr) {
-    throw std::runtime_error(prefix + "cannot create '" + tmp + "': " + errno_text(errno));
+  tmp_ = path_ + ".tmp." + std::to_string(::getpid()) + "." + std::to_string(counter++);
+  file_ = std::fopen(tmp_.c_str(), "wb");
+  if (file_ == nullptr) {
+    throw std::runtime_error("cannot write '" + path_ + "': cannot create '" + tmp_ +
+                             "': " + errno_text(errno));
   }
+}
+
+AtomicFile::~AtomicFile() {
+  if (file_ != nullptr) {  // not committed
+    std::fclose(file_);
+    std::remove(tmp_.c_str());
+  }
+}
+
+void AtomicFile::write(std::string_view bytes) {
+  if (file_ == nullptr) throw std::logic_error("AtomicFile::write after commit: " + path_);
+  if (!bytes.empty() && std::fwrite(bytes.data(), 1, bytes.size(), file_) != bytes.size()) {
+    fail(errno != 0 ? errno : EIO);
+  }
+  written_ += bytes.size();
+}
+
+void AtomicFile::commit() {
+  if (file_ == nullptr) throw std::logic_error("AtomicFile::commit twice: " + path_);
   int err = 0;
-  if (!contents.empty() && std::fwrite(contents.data(), 1, contents.size(), f) != contents.size()) {
-    err = errno != 0 ? errno : EIO;
-  }
-  if (std::fflush(f) != 0 && err == 0) err = errno != 0 ? errno : EIO;
-  if (std::fclose(f) != 0 && err == 0) err = errno != 0 ? errno : EIO;
-  if (err == 0 && std::rename(tmp.c_str(), path.c_str()) != 0) err = errno != 0 ? errno : EIO;
-  if (err != 0) {
-    std::remove(tmp.c_str());
-    throw std::runtime_error(prefix + errno_text(err));
-  }
+  if (std::fflush(file_) != 0) err = errno != 0 ? errno : EIO;
+  if (std::fclose(file_) != 0 && err == 0) err = errno != 0 ? errno : EIO;
+  file_ = nullptr;
+  if (err == 0 && std::rename(tmp_.c_str(), path_.c_str()) != 0) err = errno != 0 ? errno : EIO;
+  if (err != 0) fail(err);
+}
+
+void AtomicFile::fail(int err) {
+  if (file_ != nullptr) std::fclose(file_);
+  file_ = nullptr;
+  std::remove(tmp_.c_str());
+  throw std::runtime_error("cannot write '" + path_ + "': " + errno_text(err));
 }
 
 std::string read_whole_file(const std::string& path, std::uintmax_t max_bytes,

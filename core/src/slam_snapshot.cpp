@@ -2,6 +2,7 @@
 
 #include <bit>
 #include <cstring>
+#include <functional>
 #include <memory>
 #include <type_traits>
 #include <utility>
@@ -19,15 +20,19 @@ namespace {
 constexpr std::string_view kMapMagic = "ESFMAP01";
 constexpr std::string_view kSlamMagic = "ESFSLAM1";
 
+/// The bytes of a blob, then their FNV-1a. Without a sink they collect in memory and finish()
+/// returns them; with one they go to it in pieces of about kPiece bytes, in order (the sink
+/// sees the same bytes, finish() returns nothing).
 class Out {
  public:
-  explicit Out(std::string_view magic) : bytes_(magic) {}
+  using Sink = std::function<void(std::string_view)>;
+  explicit Out(std::string_view magic, Sink sink = {}) : sink_(std::move(sink)) { append(magic); }
   template <class T>
   void put(T v) {
     static_assert(std::is_trivially_copyable_v<T>);
     char b[sizeof(T)];
     std::memcpy(b, &v, sizeof(T));
-    bytes_.append(b, sizeof(T));
+    append({b, sizeof(T)});
   }
   void put(const Pose2& p) {
     put(p.x);
@@ -40,20 +45,40 @@ class Out {
   }
   void put(const std::vector<float>& v) {
     put<std::uint64_t>(v.size());
-    bytes_.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(float));
+    append({reinterpret_cast<const char*>(v.data()), v.size() * sizeof(float)});
   }
   void put_bytes(const std::vector<std::uint8_t>& v) {
     put<std::uint64_t>(v.size());
-    bytes_.append(reinterpret_cast<const char*>(v.data()), v.size());
+    append({reinterpret_cast<const char*>(v.data()), v.size()});
   }
-  void reserve(std::size_t n) { bytes_.reserve(n); }
+  void reserve(std::size_t n) { bytes_.reserve(sink_ ? kPiece + 64 : n); }
   std::string finish() {
-    put(detail::fnv1a(bytes_));
-    return std::move(bytes_);
+    hash_.add(bytes_);
+    const std::uint64_t checksum = hash_.value();
+    char b[sizeof checksum];
+    std::memcpy(b, &checksum, sizeof checksum);
+    bytes_.append(b, sizeof checksum);
+    if (!sink_) return std::move(bytes_);
+    sink_(bytes_);
+    bytes_.clear();
+    return {};
   }
 
  private:
-  std::string bytes_;
+  static constexpr std::size_t kPiece = 1 << 16;
+
+  void append(std::string_view b) {
+    bytes_.append(b);
+    if (sink_ && bytes_.size() >= kPiece) {
+      hash_.add(bytes_);
+      sink_(bytes_);
+      bytes_.clear();
+    }
+  }
+
+  Sink sink_;
+  std::string bytes_;  ///< not yet hashed (with a sink: not yet handed over)
+  detail::Fnv1a hash_;
 };
 
 class In {
@@ -186,8 +211,9 @@ void decode_map_snapshot(std::string_view bytes, GridMap& map) {
   in.done();
 }
 
-std::string encode_slam_state(const SlamState& s) {
-  Out out(kSlamMagic);
+namespace {
+
+void put_slam_state(const SlamState& s, Out& out) {
   // Sized up front: growing by doubling would hold up to three times the key scans' bytes.
   std::size_t size = 256 + 32 * s.trajectory.size() + 24 * s.graph_nodes.size() +
                      64 * s.graph_edges.size() + 32 * s.anchors.size();
@@ -244,7 +270,26 @@ std::string encode_slam_state(const SlamState& s) {
   }
   // Appended only when present, so that a state without one has the layout of before.
   if (s.pending_loop_key) out.put<std::uint64_t>(*s.pending_loop_key);
+}
+
+}  // namespace
+
+std::string encode_slam_state(const SlamState& s) {
+  Out out(kSlamMagic);
+  put_slam_state(s, out);
   return out.finish();
+}
+
+std::uint64_t write_slam_state(const SlamState& s,
+                               const std::function<void(std::string_view)>& sink) {
+  std::uint64_t bytes = 0;
+  Out out(kSlamMagic, [&](std::string_view piece) {
+    bytes += piece.size();
+    sink(piece);
+  });
+  put_slam_state(s, out);
+  out.finish();
+  return bytes;
 }
 
 SlamState decode_slam_state(std::string_view bytes) {

@@ -48,6 +48,28 @@ TEST_F(FileIoTest, AtomicWriteOverADirectoryFailsAndCleansUp) {
   EXPECT_EQ(std::distance(fs::directory_iterator(dir_), fs::directory_iterator()), 1);
 }
 
+TEST_F(FileIoTest, AtomicFileInPiecesAppearsOnlyOnCommit) {
+  const std::string file = path("blob.bin");
+  write_file_atomically(file, "old");
+  {
+    AtomicFile f(file);
+    f.write("new ");
+    f.write("");
+    f.write(std::string("con\0tents", 9));
+    EXPECT_EQ(slurp(file), "old");  // not yet
+    f.commit();
+    EXPECT_EQ(f.bytes_written(), 13u);
+  }
+  EXPECT_EQ(slurp(file), std::string("new con\0tents", 13));
+  {
+    AtomicFile abandoned(file);  // e.g. the producer threw
+    abandoned.write("half");
+  }
+  EXPECT_EQ(slurp(file), std::string("new con\0tents", 13));
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir_), fs::directory_iterator()), 1);
+  EXPECT_THROW(AtomicFile(path("missing/blob.bin")), std::runtime_error);
+}
+
 // --- read_whole_file ---------------------------------------------------------------------------
 
 TEST_F(FileIoTest, ReadWholeFileReadsUpToTheBoundAndNamesTheFileOtherwise) {

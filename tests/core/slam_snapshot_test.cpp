@@ -97,6 +97,28 @@ TEST(SlamSnapshot, APendingDeferredLoopSearchIsSavedAndRestarted) {
   expect_same_run(resumed, straight);
 }
 
+TEST(SlamSnapshot, StreamedStateEqualsTheEncodedOne) {
+  const std::vector<LaserScan> scans = csail_scans(60);
+  Slam slam(test_config());
+  for (const LaserScan& s : scans) slam.process(s);
+  SlamState state = slam.state();
+  // More key scans than 60 scans make, so that the blob takes several pieces (encoding does not
+  // check that they fit the graph).
+  const std::vector<KeyScan> keys = state.keys;
+  for (int i = 0; i < 30; ++i) state.keys.insert(state.keys.end(), keys.begin(), keys.end());
+  std::string streamed;
+  std::size_t pieces = 0;
+  const std::uint64_t n = write_slam_state(state, [&](std::string_view piece) {
+    EXPECT_LE(piece.size(), std::size_t{1} << 17);
+    streamed += piece;
+    ++pieces;
+  });
+  const std::string encoded = encode_slam_state(state);
+  EXPECT_EQ(streamed, encoded);
+  EXPECT_EQ(n, encoded.size());
+  EXPECT_GT(pieces, 1u) << encoded.size() << " bytes in one piece";
+}
+
 TEST(SlamSnapshot, DamageIsReportedWithTheField) {
   const std::vector<LaserScan> scans = csail_scans(60);
   Slam slam(test_config());

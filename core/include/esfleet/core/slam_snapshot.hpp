@@ -12,6 +12,7 @@
 // with the key of a pending loop-closure search when there is one (SlamState::pending_loop_key).
 
 #include <cstdint>
+#include <functional>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -47,6 +48,11 @@ std::string encode_map_snapshot(double cell_size, int tile_edge,
 void decode_map_snapshot(std::string_view bytes, GridMap& map);
 
 std::string encode_slam_state(const SlamState& state);
+/// The bytes of encode_slam_state(state) handed to `sink` in pieces of about 64 kB, in order,
+/// without holding them all (the leader's checkpoint writer streams them into the file: the
+/// key scans make the blob 8 MB on CSAIL); returns their count.
+std::uint64_t write_slam_state(const SlamState& state,
+                               const std::function<void(std::string_view)>& sink);
 /// Throws SnapshotError for a malformed or corrupt blob.
 SlamState decode_slam_state(std::string_view bytes);
 
