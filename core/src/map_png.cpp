@@ -5,9 +5,10 @@
 #include <cmath>
 #include <cstdlib>
 #include <stdexcept>
+#include <utility>
+#include <vector>
 
 #include "esfleet/core/file_io.hpp"
-#include "image_decoder.hpp"
 #include "map_raster.hpp"
 #include "png_io.hpp"
 
@@ -47,17 +48,17 @@ bool clip_segment(Point& a, Point& b, double w, double h) {
   return std::isfinite(a.x) && std::isfinite(a.y) && std::isfinite(b.x) && std::isfinite(b.y);
 }
 
-/// An RGB image, rows from the top, with the two shapes the map PNG draws.
-class Canvas {
+/// What the map PNG draws over the map: the pixels set (index row * width + col, colour), in
+/// drawing order, a later one covering an earlier one. Kept sparse, so that the colour image is
+/// never held whole (CSAIL: 1142 x 1709 pixels, 5.9 MB as RGB; its trajectory sets a few
+/// thousand).
+class Overlay {
  public:
-  Canvas(int width, int height)
-      : px_{width, height, 3,
-            std::vector<std::uint8_t>(static_cast<std::size_t>(width) * height * 3)} {}
+  Overlay(int width, int height) : width_(width), height_(height) {}
 
   void set(int col, int row, const Rgb& c) {
-    if (col < 0 || row < 0 || col >= px_.width || row >= px_.height) return;
-    const std::size_t i = (static_cast<std::size_t>(row) * px_.width + col) * 3;
-    std::copy(c.begin(), c.end(), px_.data.begin() + static_cast<std::ptrdiff_t>(i));
+    if (col < 0 || row < 0 || col >= width_ || row >= height_) return;
+    pixels_.emplace_back(static_cast<std::size_t>(row) * width_ + col, c);
   }
 
   /// An 8-connected 1-pixel line from (c0, r0) to (c1, r1), both ends included (Bresenham).
@@ -98,32 +99,37 @@ class Canvas {
     }
   }
 
-  std::uint8_t* row(int r) { return px_.data.data() + static_cast<std::size_t>(r) * px_.width * 3; }
-  const detail::Pixels& pixels() const { return px_; }
-
- private:
-  detail::Pixels px_;
-};
-
-Canvas draw_map(const GridMap& map, const std::vector<TimedPose>& trajectory,
-                const OccupancyThresholds& th, const std::string& path) {
-  const detail::Raster r = detail::render(map, th, path);
-  Canvas img(r.width, r.height);
-  const int u = kUnknownLevel;
-  const Rgb tint{static_cast<std::uint8_t>(std::max(u - 15, 0)), static_cast<std::uint8_t>(u),
-                 static_cast<std::uint8_t>(std::min(u + 15, 255))};
-  for (int row = 0; row < r.height; ++row) {
-    std::uint8_t* out = img.row(row);
-    for (int col = 0; col < r.width; ++col) {
-      const auto j = static_cast<std::size_t>(row) * r.width + col;
-      const std::uint8_t x = r.grey[j];
-      const Rgb c = r.known[j] ? Rgb{x, x, x} : tint;
-      std::copy(c.begin(), c.end(), out + 3 * col);
+  /// After drawing: orders the pixels by index, keeping the last colour drawn at each.
+  void finish() {
+    std::stable_sort(pixels_.begin(), pixels_.end(),
+                     [](const auto& a, const auto& b) { return a.first < b.first; });
+    std::size_t kept = 0;
+    for (std::size_t i = 0; i < pixels_.size(); ++i) {
+      if (i + 1 < pixels_.size() && pixels_[i + 1].first == pixels_[i].first) continue;
+      pixels_[kept++] = pixels_[i];
     }
+    pixels_.resize(kept);
   }
 
+  /// The colour drawn at pixel i, if any. After finish(), with i growing from call to call.
+  const Rgb* at(std::size_t i) {
+    while (next_ < pixels_.size() && pixels_[next_].first < i) ++next_;
+    return next_ < pixels_.size() && pixels_[next_].first == i ? &pixels_[next_].second : nullptr;
+  }
+
+ private:
+  int width_;
+  int height_;
+  std::vector<std::pair<std::size_t, Rgb>> pixels_;
+  std::size_t next_ = 0;  ///< at(): the first pixel not behind the last index asked for
+};
+
+/// The trajectory over the map: red polyline, green disc at the first pose, blue at the last.
+Overlay draw_trajectory(const detail::Raster& r, double cell_size,
+                        const std::vector<TimedPose>& trajectory) {
+  Overlay img(r.width, r.height);
   // Continuous image coordinates of a pose: pixel (c, r) covers [c, c+1) x [r, r+1).
-  const double cs = map.cell_size();
+  const double cs = cell_size;
   const auto to_image = [&](const Pose2& p) {
     return Point{p.x / cs - r.min.x, (r.max_y + 1.0) - p.y / cs};
   };
@@ -160,6 +166,7 @@ Canvas draw_map(const GridMap& map, const std::vector<TimedPose>& trajectory,
   }
   if (have_first && inside(first)) img.disc(col_of(first), row_of(first), kMarkerRadius, kGreen);
   if (have_first && inside(last)) img.disc(col_of(last), row_of(last), kMarkerRadius, kBlue);
+  img.finish();
   return img;
 }
 
@@ -167,10 +174,25 @@ Canvas draw_map(const GridMap& map, const std::vector<TimedPose>& trajectory,
 
 void save_map_png(const GridMap& map, const std::vector<TimedPose>& trajectory,
                   const std::string& path, const OccupancyThresholds& th) {
-  const Canvas img = draw_map(map, trajectory, th, path);
+  const detail::Raster r = detail::render(map, th, path);
+  Overlay overlay = draw_trajectory(r, map.cell_size(), trajectory);
+  const int u = kUnknownLevel;
+  const Rgb tint{static_cast<std::uint8_t>(std::max(u - 15, 0)), static_cast<std::uint8_t>(u),
+                 static_cast<std::uint8_t>(std::min(u + 15, 255))};
+  // Row by row: each cell in its grey level (the unknown tint if never observed), unless the
+  // overlay covers it.
+  const auto fill_row = [&](int row, std::uint8_t* out) {
+    for (int col = 0; col < r.width; ++col) {
+      const auto j = static_cast<std::size_t>(row) * r.width + col;
+      const std::uint8_t x = r.grey[j];
+      const Rgb* drawn = overlay.at(j);
+      const Rgb c = drawn != nullptr ? *drawn : r.known[j] ? Rgb{x, x, x} : tint;
+      std::copy(c.begin(), c.end(), out + 3 * col);
+    }
+  };
   std::string png;
   try {
-    png = detail::write_png(img.pixels());
+    png = detail::write_png(r.width, r.height, 3, fill_row);
   } catch (const std::exception& e) {
     throw std::runtime_error("cannot write '" + path + "': " + e.what());
   }

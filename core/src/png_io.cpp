@@ -9,6 +9,7 @@
 #include <cstring>
 #include <new>
 #include <stdexcept>
+#include <vector>
 
 #include "esfleet/core/ros_map_format.hpp"
 
@@ -123,8 +124,36 @@ class PngReader {
   png_infop info_;
 };
 
-/// Writes `image` as a PNG through `png`; false on a libpng error.
-bool png_encode(png_structp png, png_infop info, const Pixels& image) {
+/// Owns libpng's write structures.
+class PngWriter {
+ public:
+  explicit PngWriter(PngIo& io)
+      : png_(png_create_write_struct(PNG_LIBPNG_VER_STRING, &io, on_error, on_warning)),
+        info_(png_ ? png_create_info_struct(png_) : nullptr) {}
+  ~PngWriter() { png_destroy_write_struct(&png_, info_ ? &info_ : nullptr); }
+  PngWriter(const PngWriter&) = delete;
+  PngWriter& operator=(const PngWriter&) = delete;
+  png_structp png() const { return png_; }
+  png_infop info() const { return info_; }
+
+ private:
+  png_structp png_;
+  png_infop info_;
+};
+
+/// What png_encode writes: the size and where each row comes from (`row` is a buffer of
+/// width * channels bytes owned by the caller).
+struct PngRows {
+  int width = 0;
+  int height = 0;
+  int channels = 0;
+  const std::function<void(int, std::uint8_t*)>* fill_row = nullptr;
+  std::uint8_t* row = nullptr;
+};
+
+/// Writes the rows as a PNG through `png`; false on a libpng error. An exception from fill_row
+/// leaves through here (no libpng frame is on the stack while it runs).
+bool png_encode(png_structp png, png_infop info, const PngRows& image) {
   if (setjmp(png_jmpbuf(png))) return false;
   static constexpr int kColourTypes[] = {PNG_COLOR_TYPE_GRAY, PNG_COLOR_TYPE_GRAY_ALPHA,
                                          PNG_COLOR_TYPE_RGB, PNG_COLOR_TYPE_RGB_ALPHA};
@@ -135,9 +164,9 @@ bool png_encode(png_structp png, png_infop info, const Pixels& image) {
                static_cast<png_uint_32>(image.height), 8, kColourTypes[image.channels - 1],
                PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
   png_write_info(png, info);
-  const std::size_t row_bytes = static_cast<std::size_t>(image.width) * image.channels;
   for (int r = 0; r < image.height; ++r) {
-    png_write_row(png, image.data.data() + static_cast<std::size_t>(r) * row_bytes);
+    (*image.fill_row)(r, image.row);
+    png_write_row(png, image.row);
   }
   png_write_end(png, nullptr);
   return true;
@@ -181,20 +210,28 @@ std::string write_png(const Pixels& image) {
                                static_cast<std::size_t>(image.channels)) {
     throw std::invalid_argument("write_png: image size and data do not agree");
   }
+  const std::size_t row_bytes = static_cast<std::size_t>(image.width) * image.channels;
+  return write_png(image.width, image.height, image.channels, [&](int r, std::uint8_t* out) {
+    std::copy_n(image.data.data() + static_cast<std::size_t>(r) * row_bytes, row_bytes, out);
+  });
+}
+
+std::string write_png(int width, int height, int channels,
+                      const std::function<void(int, std::uint8_t*)>& fill_row) {
+  if (width <= 0 || height <= 0 || channels < 1 || channels > 4) {
+    throw std::invalid_argument("write_png: bad image size or channel count");
+  }
+  std::vector<std::uint8_t> row(static_cast<std::size_t>(width) * channels);
   std::string out;
   PngIo io;
   io.out = &out;
-  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &io, on_error, on_warning);
-  png_infop info = png ? png_create_info_struct(png) : nullptr;
-  bool ok = false;
-  if (info != nullptr) {
-    png_set_write_fn(png, &io, write_to_string, flush_nothing);
-    ok = png_encode(png, info, image);
-  } else {
-    std::snprintf(io.message, sizeof io.message, "out of memory");
+  const PngWriter writer(io);
+  if (writer.info() == nullptr) throw std::runtime_error("PNG encoding failed: out of memory");
+  png_set_write_fn(writer.png(), &io, write_to_string, flush_nothing);
+  const PngRows rows{width, height, channels, &fill_row, row.data()};
+  if (!png_encode(writer.png(), writer.info(), rows)) {
+    throw std::runtime_error(std::string("PNG encoding failed: ") + io.message);
   }
-  png_destroy_write_struct(&png, info ? &info : nullptr);
-  if (!ok) throw std::runtime_error(std::string("PNG encoding failed: ") + io.message);
   return out;
 }
 

@@ -3,6 +3,8 @@
 // reads them, save_map_png writes them). libpng reports errors by longjmp; these calls turn
 // them into exceptions and keep libpng's warnings off stderr.
 
+#include <cstdint>
+#include <functional>
 #include <string>
 #include <string_view>
 
@@ -23,5 +25,11 @@ Pixels read_png(const std::string& path, std::string_view data);
 /// compressed for speed (sub filter, zlib level 1, run-length strategy). Throws
 /// std::runtime_error on failure (out of memory) or std::invalid_argument on a bad image.
 std::string write_png(const Pixels& image);
+
+/// The same for an image produced row by row, so that it need not be held whole:
+/// `fill_row(r, out)` writes row r (from the top, width * channels bytes) into `out`; rows are
+/// asked for in order. Throws std::invalid_argument for a bad size or channel count.
+std::string write_png(int width, int height, int channels,
+                      const std::function<void(int, std::uint8_t*)>& fill_row);
 
 }  // namespace esfleet::detail

@@ -128,9 +128,11 @@ void save_ros_map(const GridMap& map, const std::string& dir, const std::string&
     if (ec) throw std::runtime_error("cannot create directory '" + dir + "': " + ec.message());
   }
 
-  std::string pgm = "P5\n" + std::to_string(r.width) + " " + std::to_string(r.height) + "\n255\n";
-  pgm.append(r.grey.begin(), r.grey.end());
-  write_file_atomically(pgm_path, pgm);
+  // Header, then the raster straight from memory (no copy of the image in a string).
+  AtomicFile pgm(pgm_path);
+  pgm.write("P5\n" + std::to_string(r.width) + " " + std::to_string(r.height) + "\n255\n");
+  pgm.write({reinterpret_cast<const char*>(r.grey.data()), r.grey.size()});
+  pgm.commit();
 
   const double cs = map.cell_size();
   std::string yaml;
