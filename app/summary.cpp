@@ -1,5 +1,7 @@
 #include "app/summary.hpp"
 
+#include <sys/resource.h>
+
 #include <algorithm>
 #include <cmath>
 
@@ -23,6 +25,12 @@ Summary summarize(std::vector<double> v) {
   for (double x : v) sum += x;
   s.mean = sum / static_cast<double>(v.size());
   return s;
+}
+
+double peak_rss_mb() {
+  rusage ru{};
+  if (getrusage(RUSAGE_SELF, &ru) != 0) return 0.0;
+  return static_cast<double>(ru.ru_maxrss) * 1024.0 / 1e6;  // Linux: kilobytes
 }
 
 }  // namespace esfleet::app

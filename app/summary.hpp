@@ -12,4 +12,7 @@ struct Summary {
 /// Quantiles interpolate linearly between the sorted values (numpy's default).
 Summary summarize(std::vector<double> values);
 
+/// The process's peak resident set size so far (getrusage's ru_maxrss), megabytes (10^6 bytes).
+double peak_rss_mb();
+
 }  // namespace esfleet::app

@@ -95,6 +95,8 @@ void write_slam_outputs(const std::string& dir, const Slam& slam, const SlamRunS
       {"width_m", b.empty ? 0.0 : (b.max.x - b.min.x + 1) * cs},
       {"height_m", b.empty ? 0.0 : (b.max.y - b.min.y + 1) * cs},
   };
+  // Last, so that it covers writing the maps.
+  j["peak_rss_mb"] = app::peak_rss_mb();
   write_file_atomically(dir + "/stats.json", j.dump(2) + "\n");
 }
 
