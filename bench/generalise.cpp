@@ -1,7 +1,6 @@
 #include "generalise.hpp"
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <map>
@@ -9,7 +8,6 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <stdexcept>
-#include <thread>
 #include <utility>
 
 #include "app/program.hpp"
@@ -17,6 +15,7 @@
 #include "app/summary.hpp"
 #include "esfleet/core/file_io.hpp"
 #include "generalise_data.hpp"
+#include "parallel_for.hpp"
 
 namespace esfleet::bench {
 
@@ -127,18 +126,6 @@ RunResult run_one(const GeneraliseLog& log, const RunSpec& spec, const Generalis
   r.relations = score_kept_relations(log, kept, estimate);
   r.derived = score_kept_derived(log, kept, estimate, kGaps);
   return r;
-}
-
-template <typename F>
-void parallel_for(int jobs, std::size_t n, F&& f) {
-  std::atomic<std::size_t> next{0};
-  std::vector<std::thread> pool;
-  for (int t = 0; t < std::max(1, jobs); ++t) {
-    pool.emplace_back([&] {
-      for (std::size_t i = next++; i < n; i = next++) f(i);
-    });
-  }
-  for (auto& th : pool) th.join();
 }
 
 /// A statistic that is undefined without samples is null in the JSON, not 0.

@@ -7,7 +7,6 @@
 #include <functional>
 #include <mutex>
 #include <nlohmann/json.hpp>
-#include <thread>
 
 #include "app/localise_params.hpp"
 #include "app/slam_params.hpp"
@@ -17,6 +16,7 @@
 #include "esfleet/core/relations.hpp"
 #include "esfleet/core/scan_points.hpp"
 #include "esfleet/core/slam.hpp"
+#include "parallel_for.hpp"
 
 namespace esfleet::bench {
 
@@ -310,18 +310,6 @@ StartResult run_start(const LocaliserConfig& config, const GridMap& map,
   }
   r.cpu_s = cpu_ms * 1e-3;
   return r;
-}
-
-template <typename F>
-void parallel_for(int threads, std::size_t n, F&& f) {
-  std::atomic<std::size_t> next{0};
-  std::vector<std::thread> pool;
-  for (int t = 0; t < std::max(1, threads); ++t) {
-    pool.emplace_back([&] {
-      for (std::size_t i = next++; i < n; i = next++) f(i);
-    });
-  }
-  for (auto& th : pool) th.join();
 }
 
 nlohmann::json summarize_case(const std::vector<StartResult>& results, std::size_t skipped,
