@@ -81,6 +81,27 @@ void add_slam_params(ParamTable& t, SlamConfig* s, CarmenReaderOptions* r) {
                "share of end points on occupied cells a loop match needs");
   t.add_double("loop_max_ambiguity", &s->loop.max_ambiguity,
                "second-best distinct score / best score a loop match may have");
+  t.add_switch("loop_final", &s->loop.final_pass,
+               "when the input ends, match every inserted scan against the ones near it from "
+               "other times and re-optimise the graph");
+  t.add_int("loop_final_every", &s->loop.final_every, "final pass: match every N-th inserted scan");
+  t.add_int("loop_final_rounds", &s->loop.final_rounds,
+            "final pass: rounds of matching, each from the poses the last one optimised");
+  t.add_double("loop_final_window_xy", &s->loop.final_window_xy,
+               "final pass search window +-, metres");
+  t.add_double("loop_final_window_theta", &s->loop.final_window_theta_deg,
+               "final pass search window +-, degrees");
+  t.add_double("loop_final_radius", &s->loop.final_submap_radius,
+               "final pass: scans from other times within this of a scan form its submap, metres");
+  t.add_int("loop_final_max_scans", &s->loop.final_max_submap_scans,
+            "final pass: at most this many scans (nearest first) in a submap");
+  t.add_double("loop_final_max_chi2", &s->loop.final_max_edge_chi2,
+               "final pass: matches the optimised graph disagrees with by more than this "
+               "(whitened squared error) are dropped");
+  t.add_double("loop_final_max_ambiguity", &s->loop.final_max_ambiguity,
+               "final pass: second-best distinct score / best score a match may have");
+  t.add_double("loop_final_rival_distance", &s->loop.final_rival_distance,
+               "final pass: what counts as distinct for the ambiguity, metres");
   t.add_double("loop_max_chi2", &s->loop.max_chi2,
                "graph cost increase above which a loop closure is dropped");
   t.add_switch("recovery", &s->recovery.enabled,

@@ -116,6 +116,7 @@ RunResult run_one(const GeneraliseLog& log, const RunSpec& spec, const Generalis
     scan_ms.push_back(
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
   }
+  slam.finish();  // as esfleet-leader does when its input ends
   r.run_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   r.scan_ms = app::summarize(std::move(scan_ms));
   r.scans = scans.size();

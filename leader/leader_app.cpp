@@ -302,6 +302,17 @@ int LeaderApp::run() {
   const SlamRunStats stats = run_slam(slam_, *source_, o_.max_scans, stop_,
                                       [this](const LaserScan& scan, const SlamStep& s,
                                              std::size_t done) { on_scan(scan, s, done); });
+  // The final pass once the input ended (not on Ctrl-C: stopping stays quick). The tiles it
+  // changes go out with the last publish (extra_stats).
+  if (!stats.interrupted && stats.scans > 0) {
+    final_pass_ = slam_.finish();
+    if (final_pass_->tried > 0) {
+      spdlog::info(
+          "final pass: {} key scans matched against their surroundings, {} matches, {} "
+          "kept; {:.1f} s",
+          final_pass_->tried, final_pass_->matched, final_pass_->kept, final_pass_->ms / 1000.0);
+    }
+  }
   if (checkpoints_) checkpoints_->save(slam_, stats.interrupted ? "interrupted" : "end of input");
   if (stats.scans == 0 && !resumed_) {
     spdlog::warn("no scan received: nothing to save");
@@ -357,6 +368,12 @@ nlohmann::json LeaderApp::extra_stats(const SlamRunStats& stats) {
     extra["ros_scan"]["topic"] = o_.ros.scan_topic;
   }
   extra["paper_mode"] = o_.paper;
+  if (final_pass_) {
+    extra["final_pass"] = {{"key_scans_tried", final_pass_->tried},
+                           {"matched", final_pass_->matched},
+                           {"kept", final_pass_->kept},
+                           {"s", final_pass_->ms / 1000.0}};
+  }
   if (checkpoints_) extra["checkpoint"] = checkpoints_->stats();
   if (resumed_) {
     extra["resumed"] = {{"from", o_.resume_dir},

@@ -90,6 +90,7 @@ class LeaderApp {
   std::unique_ptr<app::RosPoseOutput> ros_pose_;
   double ros_pose_cpu_s_ = 0.0;  ///< thread CPU of the pose and TF outputs
   std::optional<CheckpointSchedule> checkpoints_;
+  std::optional<SlamFinish> final_pass_;  ///< what Slam::finish did at the end of the input
   std::size_t progress_every_ = 0;
   std::optional<double> first_stamp_;
   double last_stamp_ = 0.0;

@@ -28,6 +28,19 @@ void LoopClosureConfig::validate() const {
   positive(window_theta_deg, "window_theta_deg");
   positive(sigma_xy, "sigma_xy");
   positive(sigma_theta_deg, "sigma_theta_deg");
+  if (final_pass) {
+    if (final_every < 1) throw std::invalid_argument("loop.final_every must be >= 1");
+    if (final_rounds < 1) throw std::invalid_argument("loop.final_rounds must be >= 1");
+    if (final_max_submap_scans < 1) {
+      throw std::invalid_argument("loop.final_max_submap_scans must be >= 1");
+    }
+    positive(final_window_xy, "final_window_xy");
+    positive(final_window_theta_deg, "final_window_theta_deg");
+    positive(final_submap_radius, "final_submap_radius");
+    positive(final_rival_distance, "final_rival_distance");
+    positive(final_max_ambiguity, "final_max_ambiguity");
+    positive(final_max_edge_chi2, "final_max_edge_chi2");
+  }
 }
 
 std::optional<LoopMatch> find_loop_closure(const std::vector<KeyScan>& keys,
@@ -97,7 +110,7 @@ std::optional<LoopMatch> find_loop_closure(const std::vector<KeyScan>& keys,
   const Candidate best = *best_it;
   float rival = 0.0f;
   for (const Candidate& c : scored) {
-    if (std::hypot(c.pose.x - best.pose.x, c.pose.y - best.pose.y) > 1.0) {
+    if (std::hypot(c.pose.x - best.pose.x, c.pose.y - best.pose.y) > config.rival_distance) {
       rival = std::max(rival, c.score);
     }
   }

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <thread>
 
 namespace esfleet {
 
@@ -277,6 +278,86 @@ bool Slam::finish_loop_search() {
                          match->value.agreement(), match->ambiguity};
   apply_graph();
   return true;
+}
+
+SlamFinish Slam::finish(unsigned threads) {
+  const auto t0 = Clock::now();
+  SlamFinish out;
+  if (!config_.loop.enabled) return out;
+  bool changed = pending_loop_ && finish_loop_search();
+  const LoopClosureConfig& lc = config_.loop;
+  if (lc.final_pass && keys_.size() > 1) {
+    LoopClosureConfig fc = lc;
+    fc.window_xy = lc.final_window_xy;
+    fc.window_theta_deg = lc.final_window_theta_deg;
+    fc.search_radius = lc.final_submap_radius;
+    fc.submap_radius = lc.final_submap_radius;
+    fc.max_submap_scans = lc.final_max_submap_scans;
+    fc.rival_distance = lc.final_rival_distance;
+    fc.max_ambiguity = lc.final_max_ambiguity;
+    const FitnessOptions fitness = slam_fitness_options(
+        config_.tracking, config_.tracking.interpolation != Interpolation::kNone);
+    threads = std::max(threads, 1u);
+    const auto every = static_cast<std::size_t>(std::max(lc.final_every, 1));
+    const std::size_t n = keys_.size();
+    // The graph as the online SLAM left it; each round replaces the previous round's edges.
+    const std::vector<PoseGraphEdge> online_edges = graph_.edges();
+    for (int round = 0; round < std::max(lc.final_rounds, 1); ++round) {
+      const std::vector<Pose2> poses = graph_.nodes();
+      std::vector<std::optional<LoopMatch>> matches(n);
+      // Independent searches, results by index: the same for any number of threads.
+      // find_loop_closure takes only scans at least min_travel back along the path: each
+      // revisit is found from its later end.
+      auto work = [&](std::size_t first, std::size_t step) {
+        for (std::size_t k = first * every; k < n; k += step * every) {
+          matches[k] =
+              find_loop_closure(keys_, poses, *keys_[k].points, poses[k], keys_[k].path_length, fc,
+                                config_.map, config_.update, fitness);
+        }
+      };
+      std::vector<std::thread> pool;
+      for (std::size_t t = 1; t < threads; ++t) pool.emplace_back(work, t, threads);
+      work(0, threads);
+      for (std::thread& t : pool) t.join();
+      PoseGraph g;
+      g.set_nodes(poses);
+      for (const PoseGraphEdge& e : online_edges) g.add_edge(e);
+      std::size_t matched = 0;
+      for (std::size_t k = 0; k < n; ++k) {
+        if (!matches[k]) continue;
+        ++matched;
+        PoseGraphEdge e;
+        e.from = matches[k]->anchor;
+        e.to = k;
+        e.measurement = matches[k]->relative;
+        e.info_xy = 1.0 / (lc.sigma_xy * lc.sigma_xy);
+        e.info_theta = 1.0 / std::pow(deg_to_rad(lc.sigma_theta_deg), 2);
+        e.huber = lc.huber;
+        g.add_edge(e);
+      }
+      out.tried = (n + every - 1) / every;
+      out.matched = matched;
+      out.kept = 0;
+      if (matched == 0) break;
+      g.optimize(20);
+      // Drop the matches the optimised graph disagrees with, and optimise again without them.
+      PoseGraph kept;
+      kept.set_nodes(poses);
+      for (std::size_t i = 0; i < g.edges().size(); ++i) {
+        const PoseGraphEdge& e = g.edges()[i];
+        if (i < online_edges.size() || g.edge_chi2(e) <= lc.final_max_edge_chi2) {
+          kept.add_edge(e);
+          out.kept += i < online_edges.size() ? 0 : 1;
+        }
+      }
+      kept.optimize(20);
+      graph_ = std::move(kept);
+      changed = true;
+    }
+  }
+  if (changed) apply_graph();
+  out.ms = ms_since(t0);
+  return out;
 }
 
 void Slam::apply_graph() {

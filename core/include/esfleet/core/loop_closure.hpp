@@ -46,7 +46,9 @@ struct LoopClosureConfig {
   double window_theta_deg = 15.0;  ///< search window +-, degrees
   double min_agreement = 0.75;     ///< FitnessValue::agreement of the match
   double min_known = 0.5;          ///< share of end points on known submap cells
-  double max_ambiguity = 0.7;      ///< best score > 1 m away / best score must stay below this
+  double max_ambiguity =
+      0.7;  ///< best score > rival_distance away / best score must stay below this
+  double rival_distance = 1.0;  ///< metres (see max_ambiguity)
   /// Plausibility: the correction a match implies must stay below floor + rate * (distance
   /// travelled since the anchor scan); odometry-free drift rarely exceeds a few percent.
   double drift_floor_xy = 0.3;         ///< metres
@@ -72,6 +74,19 @@ struct LoopClosureConfig {
   /// Not the default: on CSAIL (laser only) seed 4 it broke the trajectory with N = 3 and 5
   /// (docs/benchmarks.md, "SLAM speed").
   int defer_keys = 0;
+  /// Final pass (Slam::finish): every key scan matched against the key scans near it from
+  /// other times (at least min_travel away along the path) in a small window around its graph
+  /// pose, the matches added as graph edges, the graph optimised with the outliers dropped.
+  bool final_pass = true;
+  int final_every = 3;                  ///< every N-th key scan is matched
+  int final_rounds = 1;                 ///< match again from the optimised poses this often
+  double final_window_xy = 0.3;         ///< metres
+  double final_window_theta_deg = 3.0;  ///< degrees
+  double final_submap_radius = 6.0;     ///< metres
+  int final_max_submap_scans = 30;
+  double final_rival_distance = 0.3;  ///< metres
+  double final_max_ambiguity = 0.9;
+  double final_max_edge_chi2 = 9.0;  ///< whitened; edges above it after optimising are dropped
   void validate() const;
 };
 

@@ -108,12 +108,27 @@ struct SlamState {
   std::optional<std::size_t> pending_loop_key;
 };
 
+/// What Slam::finish did.
+struct SlamFinish {
+  std::size_t tried = 0;    ///< key scans matched against their surroundings from other times
+  std::size_t matched = 0;  ///< ... with an acceptable match (graph edges added)
+  std::size_t kept = 0;     ///< ... that the optimised graph agreed with
+  double ms = 0.0;
+};
+
 class Slam {
  public:
   explicit Slam(SlamConfig config = {});
 
   /// Processes one scan. The scan's odometry is read only when use_odometry is on.
   SlamStep process(const LaserScan& scan);
+  /// Once the input has ended: applies a pending loop-closure search and runs the final pass
+  /// (LoopClosureConfig::final_pass), which moves past poses and re-writes the map. Further
+  /// process() calls are allowed (the map and graph stay consistent). The final pass's searches
+  /// run on `threads` threads; the result is the same for any number. One by default: each
+  /// more thread keeps its own malloc arena of submap tiles (CSAIL: 47.0 -> 50.8 MB peak RSS
+  /// with 2), for a pass that takes 2 s on CSAIL, 10 s on fr079.
+  SlamFinish finish(unsigned threads = 1);
 
   const SlamConfig& config() const { return config_; }
   const GridMap& map() const { return map_; }
