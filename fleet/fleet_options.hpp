@@ -39,7 +39,9 @@ struct FleetOptions {
   /// Seed of the simulator; robot k's follower gets seed + k.
   unsigned seed = 1;
   /// Extra esfleet-leader flags, one string split at white space.
-  std::string leader_args = "--odometry on";
+  /// The flags data/worlds/mit-csail was mapped with: the leader's map frame is then the
+  /// simulated world's, point for point (data/worlds/README.md).
+  std::string leader_args = "--odometry on --loop-final off";
   /// Extra esfleet-follower flags, one string split at white space.
   std::string follower_args = "--odometry on";
   /// Extra esfleet-sim flags, one string split at white space.
