@@ -227,7 +227,6 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
     parser_.emplace();
     parser_->header_limit(shared().limits.header_limit);
     parser_->body_limit(shared().limits.body_limit);
-    buffer_.clear();
     stream_.expires_after(shared().limits.request_timeout);
     http::async_read(stream_, buffer_, *parser_,
                      beast::bind_front_handler(&HttpSession::on_read, shared_from_this()));
