@@ -14,6 +14,7 @@
 
 #include "app/program.hpp"
 #include "app/summary.hpp"
+#include "esfleet/core/clock.hpp"
 #include "esfleet/core/map_png.hpp"
 #include "esfleet/core/ros_map_writer.hpp"
 #include "send_queue.hpp"
@@ -176,7 +177,13 @@ void ViewApp::forward_tiles() {
   if (applied.empty()) return;
   // The newest stamp of each changed tile; the frame carries the tile as it is now.
   std::map<TileKey, std::uint64_t> changed;
+  const auto now_ns = static_cast<std::uint64_t>(realtime_ns());
   for (const auto& a : applied) {
+    if (a.stamp_ns > 0 && a.stamp_ns <= now_ns) {
+      // Leader publish -> forwarded here: the last kLatencyKept tiles, for /stats.json.
+      if (forward_latency_ms_.size() >= kLatencyKept) forward_latency_ms_.pop_front();
+      forward_latency_ms_.push_back(static_cast<double>(now_ns - a.stamp_ns) / 1e6);
+    }
     auto& stamp = changed[a.key];
     stamp = std::max(stamp, a.stamp_ns);
   }
@@ -246,6 +253,7 @@ void ViewApp::send_robots(double now) {
               {"x", round3(r.pose.x)},
               {"y", round3(r.pose.y)},
               {"th", round3(r.pose.theta)},
+              {"stamp", r.pose.stamp},
               {"status", fleet::status_name(r.pose.status)},
               {"fitness", round3(r.fitness)},
               {"leader", r.leader},
@@ -325,6 +333,12 @@ void ViewApp::send_status(double now) {
                      {"coalesced", s.coalesced},     {"bytes_sent", s.bytes_sent},
                      {"frames_sent", s.frames_sent}};
   stats["forwarded"] = {{"tiles", tiles_forwarded_}, {"bytes", tile_bytes_forwarded_}};
+  if (!forward_latency_ms_.empty()) {
+    const app::Summary l =
+        app::summarize(std::vector<double>(forward_latency_ms_.begin(), forward_latency_ms_.end()));
+    stats["forwarded"]["latency_ms"] = {
+        {"median", l.median}, {"p99", l.p99}, {"max", l.max}, {"n", forward_latency_ms_.size()}};
+  }
   server_->send_state("stats", stats.dump(), false);
 }
 

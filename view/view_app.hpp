@@ -89,6 +89,8 @@ class ViewApp {
   bool map_shown_ = false;
   std::uint64_t tiles_forwarded_ = 0;
   std::uint64_t tile_bytes_forwarded_ = 0;
+  static constexpr std::size_t kLatencyKept = 10000;
+  std::deque<double> forward_latency_ms_;  ///< leader publish -> forwarded to the server
 
   // DDS: the node first, its readers after (destroyed first).
   std::unique_ptr<dds::Node> node_;

@@ -88,7 +88,7 @@
     cellsCtx.putImageData(t.image, (t.tx - s.bounds.minTx) * e, (s.bounds.maxTy - t.ty) * e);
   }
 
-  async function onTileFrame(buf) {
+  async function onTileFrame(buf, recvMs) {
     if (buf.byteLength < HEADER_BYTES) return;
     const d = new DataView(buf);
     if (d.getUint8(0) !== 0x54 || d.getUint8(1) !== 1) return;
@@ -129,7 +129,8 @@
     putTile(t);
     const now = Date.now();
     if (stampMs >= s.connectedAt) {  // published while connected: a live change
-      const entry = { key, version, stamp_ms: stampMs, applied_ms: now, drawn_ms: null };
+      const entry = { key, version, stamp_ms: stampMs, recv_ms: recvMs, applied_ms: now,
+                      drawn_ms: null };
       s.tileLog.push(entry);
       if (s.tileLog.length > 20000) s.tileLog.splice(0, 10000);
       s.pendingDraw.push(entry);
@@ -209,7 +210,7 @@
         onText(ev.data);
       } else {
         s.bytes += ev.data.byteLength;
-        onTileFrame(ev.data);
+        onTileFrame(ev.data, Date.now());
       }
       $('bytes').textContent = formatBytes(s.bytes);
     };
