@@ -267,14 +267,12 @@ void ViewApp::send_robots(double now) {
       j["med_m"] =
           rep.error_xy_m.empty() ? json(nullptr) : json(app::summarize(rep.error_xy_m).median);
       j["wrong"] = rep.wrong_declarations;
-      if (now - r.last_s < 5.0) {
-        // Poses per second over the last robots period.
-        const double dt = o_.robots_period;
-        r.rate = static_cast<double>(rep.poses - r.poses_at_rate) / dt;
-      } else {
-        r.rate = 0.0;
+      // Poses per second, over windows of at least 2 s (the table's figure stays readable).
+      if (now - r.rate_since_s >= 2.0) {
+        r.rate = static_cast<double>(rep.poses - r.poses_at_rate) / (now - r.rate_since_s);
+        r.poses_at_rate = rep.poses;
+        r.rate_since_s = now;
       }
-      r.poses_at_rate = rep.poses;
       j["poses_per_s"] = round3(r.rate);
     }
     list.push_back(std::move(j));

@@ -54,6 +54,7 @@ class ViewApp {
     double last_s = 0.0;                        ///< view time of the last pose
     std::deque<std::pair<float, float>> trail;  ///< recent positions, oldest first
     std::size_t poses_at_rate = 0;              ///< pose count at the last rate sample
+    double rate_since_s = 0.0;                  ///< view time of the last rate sample
     double rate = 0.0;                          ///< poses per second
   };
   struct DownloadRequest {

@@ -396,8 +396,12 @@
     ctx.strokeStyle = `rgb(${rgb.join(',')})`;
     ctx.lineWidth = 3;
     ctx.stroke();
+    // The name with a white halo, readable over walls and trails.
+    ctx.font = 'bold 12px system-ui, sans-serif';
+    ctx.lineWidth = 3;
+    ctx.strokeStyle = 'rgba(255, 255, 255, 0.9)';
+    ctx.strokeText(r.id, sx + MARKER_PX + 3, sy + MARKER_PX + 10);
     ctx.fillStyle = '#111';
-    ctx.font = '12px system-ui, sans-serif';
     ctx.fillText(r.id, sx + MARKER_PX + 3, sy + MARKER_PX + 10);
   }
 
