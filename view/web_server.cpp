@@ -275,8 +275,10 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
       r.body = std::string(a->body);
       return send(std::move(r));
     }
-    if (path == "/stats.json" || path == "/state.json") {
-      const auto it = shared().states.find(path == "/stats.json" ? "stats" : "status");
+    // The states as JSON for scripts: the server's and map's figures, the map's status, the
+    // robots (what the page gets over the WebSocket).
+    if (path == "/stats.json" || path == "/status.json" || path == "/robots.json") {
+      const auto it = shared().states.find(std::string(path.substr(1, path.size() - 6)));
       HttpResponse r;
       r.content_type = "application/json";
       r.body = it != shared().states.end() ? *it->second : "{}";
