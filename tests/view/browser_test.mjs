@@ -8,7 +8,8 @@
 //      publish (99th percentile; median and maximum reported);
 //   4. a second browser that connects late gets the whole map (the same check as 1);
 //   5. the page survives the leader's restart: the banner, then the new epoch's map;
-//   6. a screenshot is written to ARTEFACTS/view.png.
+//   6. a screenshot is written to ARTEFACTS/view.png;
+// and the downloads: map.pgm and map.yaml equal the leader's, map.png has its size.
 //
 // usage: node browser_test.mjs BIN_DIR PROJECT_DIR DOMAIN PORT NODE_PREFIX ARTEFACTS
 import { spawn } from 'node:child_process';
@@ -272,6 +273,24 @@ try {
         `4. late page B: whole map ${wholeB} ms after opening; ${cmpB.agree} of ${cmpB.known} ` +
         'known cells agree');
   await pageB.close();
+
+  // --- downloads: the map as the leader saved it (ROS map_server files, byte for byte) ---
+  const dl = async (name) => Buffer.from(await (await fetch(`${url}download/${name}`)).arrayBuffer());
+  const pgm = await dl('map.pgm'), yaml = await dl('map.yaml'), png = await dl('map.png');
+  // The YAML's numbers as numbers: the map's cell size travels as a 32-bit float, so the
+  // view (as a follower) writes resolution 0.05000000074505806 where the leader wrote 0.05.
+  const numbers = (text) => text.toString().match(/-?[0-9]+(\.[0-9]+)?(e-?[0-9]+)?/g).map(Number);
+  const yamlWant = fs.readFileSync(path.join(work, 'leader/map.yaml'));
+  const same = (a, b) => a.length === b.length && a.every((v, i) => Math.abs(v - b[i]) < 1e-6);
+  check(pgm.equals(fs.readFileSync(path.join(work, 'leader/map.pgm'))) &&
+        same(numbers(yaml), numbers(yamlWant)) &&
+        yaml.toString().replace(/[0-9.e-]+/g, '') === yamlWant.toString().replace(/[0-9.e-]+/g, ''),
+        `downloads: map.pgm (${pgm.length} bytes) equals the leader's, map.yaml says the same`);
+  const leaderPng = fs.readFileSync(path.join(work, 'leader/map.png'));
+  check(png.subarray(0, 8).equals(leaderPng.subarray(0, 8)) &&
+        png.readUInt32BE(16) === leaderPng.readUInt32BE(16) &&
+        png.readUInt32BE(20) === leaderPng.readUInt32BE(20),
+        `downloads: map.png is a PNG of the leader's size (${png.readUInt32BE(16)}x${png.readUInt32BE(20)})`);
 
   // --- 5. the leader's restart: banner, then the new epoch ---
   const epoch1 = (await pageA.evaluate(() => window.esfleetView.state().map)).epoch;
