@@ -127,6 +127,7 @@ int ViewApp::run() {
     map_->spin_once(std::chrono::milliseconds(20));
     const double now = now_s();
     forward_tiles();
+    count_whole_map();
     drain_poses(now);
     const auto& meta = map_->replica().meta();
     watch_.update(now, map_->stats().meta_received, map_->matched_leaders(),
@@ -170,6 +171,7 @@ void ViewApp::forward_tiles() {
         {"tile_edge",
          map.tile_edge()}}.dump());
     leader_path_.clear();
+    frame_bytes_.clear();
     spdlog::info("map '{}' epoch {}: shown", replica.map_id(), replica.epoch());
     // Whatever the replica already holds (tiles applied before this summary of the epoch).
     for (const TileKey& k : map.tile_keys()) applied.push_back({k, 0});
@@ -202,10 +204,27 @@ void ViewApp::forward_tiles() {
     auto frame = std::make_shared<const std::string>(
         encode_tile_frame(h, tile_classes(*tile, map.tile_edge())));
     tile_bytes_forwarded_ += frame->size();
+    frame_bytes_[key] = frame->size();
     frames.emplace_back(tile_key(key.tx, key.ty), std::move(frame));
   }
   tiles_forwarded_ += frames.size();
   server_->send_tiles(std::move(frames));
+}
+
+void ViewApp::count_whole_map() {
+  // What sending the whole map instead would have cost, once per leader publish that changed
+  // the map (a new map_version in its summary; publishes between two of our spins count once,
+  // so this is a lower bound): every tile's newest frame, and a grid of one byte per cell over
+  // the summary's tile bounds (as a nav_msgs/OccupancyGrid would).
+  const auto& meta = map_->replica().meta();
+  if (!meta || frame_bytes_.empty() || meta->map_version == version_counted_) return;
+  version_counted_ = meta->map_version;
+  ++publishes_seen_;
+  for (const auto& [k, bytes] : frame_bytes_) whole_map_frame_bytes_ += bytes;
+  whole_map_grid_bytes_ +=
+      static_cast<std::uint64_t>(std::max(0, meta->max_tx - meta->min_tx + 1)) *
+      static_cast<std::uint64_t>(std::max(0, meta->max_ty - meta->min_ty + 1)) *
+      map_->replica().map().cells_per_tile();
 }
 
 void ViewApp::drain_poses(double now) {
@@ -223,6 +242,14 @@ void ViewApp::drain_poses(double now) {
       continue;
     }
     const bool leader = p.status == fleet::kStatusMapping;
+    if (robots_.size() >= kMaxRobots && robots_.find(p.robot_id) == robots_.end()) {
+      // A flood of new robot ids (a misbehaving or hostile peer) must not grow the view.
+      if (!robots_full_logged_) {
+        spdlog::warn("more than {} robot ids: poses of new ids are ignored", kMaxRobots);
+        robots_full_logged_ = true;
+      }
+      continue;
+    }
     auto [it, inserted] = robots_.try_emplace(p.robot_id);
     Robot& r = it->second;
     if (inserted && !leader) monitor_.add_robot(p.robot_id);
@@ -330,7 +357,11 @@ void ViewApp::send_status(double now) {
                      {"dropped", s.dropped},         {"ws_errors", s.ws_errors},
                      {"coalesced", s.coalesced},     {"bytes_sent", s.bytes_sent},
                      {"frames_sent", s.frames_sent}};
-  stats["forwarded"] = {{"tiles", tiles_forwarded_}, {"bytes", tile_bytes_forwarded_}};
+  stats["forwarded"] = {{"tiles", tiles_forwarded_},
+                        {"bytes", tile_bytes_forwarded_},
+                        {"leader_publishes", publishes_seen_},
+                        {"whole_map_frame_bytes", whole_map_frame_bytes_},
+                        {"whole_map_grid_bytes", whole_map_grid_bytes_}};
   if (!forward_latency_ms_.empty()) {
     const app::Summary l =
         app::summarize(std::vector<double>(forward_latency_ms_.begin(), forward_latency_ms_.end()));

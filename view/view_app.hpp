@@ -67,6 +67,8 @@ class ViewApp {
   /// Tiles applied since the last call: encoded and posted to the server; a new epoch first
   /// resets the browsers' map.
   void forward_tiles();
+  /// Adds what sending the whole map would have cost at this leader publish (bench figures).
+  void count_whole_map();
   void send_robots(double now);
   void send_trails();
   void send_status(double now);
@@ -84,12 +86,20 @@ class ViewApp {
 
   follower::LeaderWatch watch_;
   fleet::FleetMonitor monitor_;
+  static constexpr std::size_t kMaxRobots = 1000;  ///< robot ids shown; more are ignored
   std::map<std::string, Robot> robots_;
+  bool robots_full_logged_ = false;
   std::vector<TimedPose> leader_path_;
   std::uint32_t epoch_shown_ = 0;
   bool map_shown_ = false;
   std::uint64_t tiles_forwarded_ = 0;
   std::uint64_t tile_bytes_forwarded_ = 0;
+  /// Per batch of changed tiles, what sending the whole map would have cost (bench figures).
+  std::map<TileKey, std::size_t> frame_bytes_;  ///< the newest frame's size per tile
+  std::uint64_t version_counted_ = 0;           ///< the summary's map_version when last counted
+  std::uint64_t publishes_seen_ = 0;  ///< leader publishes (summaries) seen with tiles held
+  std::uint64_t whole_map_frame_bytes_ = 0;
+  std::uint64_t whole_map_grid_bytes_ = 0;
   static constexpr std::size_t kLatencyKept = 10000;
   std::deque<double> forward_latency_ms_;  ///< leader publish -> forwarded to the server
 
