@@ -17,6 +17,7 @@
 #include "esfleet/core/clock.hpp"
 #include "esfleet/core/map_png.hpp"
 #include "esfleet/core/ros_map_writer.hpp"
+#include "foxglove.hpp"
 #include "send_queue.hpp"
 #include "status_table.hpp"
 #include "tile_frame.hpp"
@@ -122,7 +123,7 @@ double ViewApp::now_s() const {
 }
 
 int ViewApp::run() {
-  double next_robots = 0.0, next_status = 0.0, next_trails = 0.0;
+  double next_robots = 0.0, next_status = 0.0, next_trails = 0.0, next_foxglove = 0.0;
   while (!stop_) {
     map_->spin_once(std::chrono::milliseconds(20));
     const double now = now_s();
@@ -144,6 +145,10 @@ int ViewApp::run() {
     if (now >= next_status) {
       send_status(now);
       next_status = now + 0.5;
+    }
+    if (now >= next_foxglove) {
+      send_foxglove();
+      next_foxglove = now + 1.0;
     }
     if (o_.timeout > 0 && now >= o_.timeout) {
       spdlog::info("--timeout {} s reached", o_.timeout);
@@ -369,6 +374,19 @@ void ViewApp::send_status(double now) {
         {"median", l.median}, {"p99", l.p99}, {"max", l.max}, {"n", forward_latency_ms_.size()}};
   }
   server_->send_state("stats", stats.dump(), false);
+}
+
+void ViewApp::send_foxglove() {
+  // The whole map, at most once a second, only when it changed and a Foxglove client listens
+  // (docs/view.md: Foxglove has no tiled map updates).
+  const mapshare::MapReplica& replica = map_->replica();
+  if (!replica.has_map() || server_->stats().foxglove == 0) return;
+  const std::pair<std::uint32_t, std::uint64_t> version{epoch_shown_, tiles_forwarded_};
+  if (version == foxglove_version_) return;
+  foxglove_version_ = version;
+  const std::int64_t now_ns = realtime_ns();
+  server_->send_foxglove_map(occupancy_grid_cdr(replica.map(), static_cast<double>(now_ns) / 1e9),
+                             static_cast<std::uint64_t>(now_ns));
 }
 
 void ViewApp::serve_downloads() {

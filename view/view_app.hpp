@@ -72,6 +72,8 @@ class ViewApp {
   void send_robots(double now);
   void send_trails();
   void send_status(double now);
+  /// The whole map to Foxglove clients, when it changed (foxglove.hpp).
+  void send_foxglove();
   void serve_downloads();
   HttpResponse make_download(const std::string& name) const;
 
@@ -89,6 +91,7 @@ class ViewApp {
   static constexpr std::size_t kMaxRobots = 1000;  ///< robot ids shown; more are ignored
   std::map<std::string, Robot> robots_;
   bool robots_full_logged_ = false;
+  std::pair<std::uint32_t, std::uint64_t> foxglove_version_{0, 0};  ///< (epoch, tiles forwarded)
   std::vector<TimedPose> leader_path_;
   std::uint32_t epoch_shown_ = 0;
   bool map_shown_ = false;

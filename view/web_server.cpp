@@ -15,6 +15,7 @@
 #include <thread>
 #include <unordered_map>
 
+#include "foxglove.hpp"
 #include "send_queue.hpp"
 #include "web_assets.hpp"
 
@@ -61,10 +62,14 @@ struct WebServer::Shared {
   std::map<std::string, std::shared_ptr<const std::string>> tiles;  ///< newest frame per tile
   /// States for newcomers, in the order they are sent ("map" first).
   std::map<std::string, std::shared_ptr<const std::string>> states;
+  /// The newest whole map for Foxglove clients (OccupancyGrid CDR) and its time.
+  std::shared_ptr<const std::string> foxglove_map;
+  std::uint64_t foxglove_map_stamp_ns = 0;
 
   struct Counters {
     std::atomic<std::uint64_t> connections{0}, clients{0}, accepted{0}, refused{0}, requests{0},
-        bad_requests{0}, dropped{0}, ws_errors{0}, coalesced{0}, bytes_sent{0}, frames_sent{0};
+        bad_requests{0}, dropped{0}, ws_errors{0}, coalesced{0}, bytes_sent{0}, frames_sent{0},
+        foxglove{0};
   } counters;
 
   void accept();
@@ -105,12 +110,20 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
         queue_(slot_->shared().limits.client_queue_bytes) {}
   ~WsSession() {
     if (registered_) --slot_->shared().counters.clients;
+    if (registered_ && foxglove_) --slot_->shared().counters.foxglove;
   }
 
   void accept(http::request<http::empty_body> req) {
     ws_.set_option(websocket::stream_base::timeout::suggested(beast::role_type::server));
-    ws_.set_option(websocket::stream_base::decorator(
-        [](websocket::response_type& res) { res.set(http::field::server, "esfleet-view"); }));
+    // A Foxglove client asks for its subprotocol; the page asks for none.
+    const auto offered = req[http::field::sec_websocket_protocol];
+    const std::optional<std::string> protocol =
+        foxglove_subprotocol(std::string_view(offered.data(), offered.size()));
+    foxglove_ = protocol.has_value();
+    ws_.set_option(websocket::stream_base::decorator([protocol](websocket::response_type& res) {
+      res.set(http::field::server, "esfleet-view");
+      if (protocol) res.set(http::field::sec_websocket_protocol, *protocol);
+    }));
     ws_.read_message_max(slot_->shared().limits.ws_message_max);
     ws_.async_accept(req, beast::bind_front_handler(&WsSession::on_accept, shared_from_this()));
   }
@@ -129,6 +142,15 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
   }
   void clear_queue() { queue_.clear(); }
   void flush() { do_write(); }
+  bool foxglove() const { return foxglove_; }
+  /// Queues the whole map for a Foxglove client subscribed to it (replacing a waiting one).
+  void push_foxglove_map(const WebServer::Shared& s) {
+    if (!foxglove_sub_ || !s.foxglove_map) return;
+    push({"fg:map",
+          std::make_shared<const std::string>(
+              foxglove_message_data(*foxglove_sub_, s.foxglove_map_stamp_ns, *s.foxglove_map)),
+          true});
+  }
 
  private:
   void on_accept(beast::error_code ec) {
@@ -140,6 +162,15 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
     s.sessions[s.next_id++] = weak_from_this();
     registered_ = true;
     ++s.counters.clients;
+    if (foxglove_) {
+      // Foxglove: who we are and the /map channel; the map once the client subscribes.
+      ++s.counters.foxglove;
+      push({"", std::make_shared<const std::string>(foxglove_server_info()), false});
+      push({"", std::make_shared<const std::string>(foxglove_advertise()), false});
+      do_read();
+      do_write();
+      return;
+    }
     // Newcomers: the map's layout and the fleet's state, every tile held, then the robots.
     for (const char* key : kStateOrder) {
       if (auto it = s.states.find(key); it != s.states.end()) push({key, it->second, false});
@@ -168,6 +199,17 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
       }
       closed_ = true;
       return;
+    }
+    if (foxglove_ && ws_.got_text()) {
+      const std::string text = beast::buffers_to_string(in_.data());
+      const FoxgloveRequest r = parse_foxglove_request(text, foxglove_sub_.value_or(~0u));
+      if (r.subscribe_map) {
+        foxglove_sub_ = r.subscribe_map;
+        push_foxglove_map(slot_->shared());
+        do_write();
+      } else if (r.unsubscribe) {
+        foxglove_sub_.reset();
+      }
     }
     in_.consume(in_.size());  // the page sends nothing the server needs; read only to answer pings
     do_read();
@@ -209,6 +251,8 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
   bool writing_ = false;
   bool closed_ = false;
   bool registered_ = false;
+  bool foxglove_ = false;                      ///< a Foxglove client (subprotocol), not the page
+  std::optional<std::uint32_t> foxglove_sub_;  ///< its subscription id of the map channel
 };
 
 namespace {
@@ -436,6 +480,7 @@ void WebServer::reset_map(std::string map_json) {
     s->tiles.clear();
     s->states["map"] = json;
     for_each_session(*s, [&](WsSession& w) {
+      if (w.foxglove()) return;
       w.clear_queue();
       if (w.push({"map", json, false})) w.flush();
     });
@@ -448,6 +493,7 @@ void WebServer::send_tiles(
   asio::post(*shared_->ioc, [s = shared_, tiles = std::move(tiles)] {
     for (const auto& [key, frame] : tiles) s->tiles[key] = frame;
     for_each_session(*s, [&](WsSession& w) {
+      if (w.foxglove()) return;
       for (const auto& [key, frame] : tiles) {
         if (!w.push({key, frame, true})) return;
       }
@@ -462,16 +508,29 @@ void WebServer::send_state(const std::string& key, std::string json, bool broadc
     s->states[key] = data;
     if (!broadcast) return;
     for_each_session(*s, [&](WsSession& w) {
-      if (w.push({key, data, false})) w.flush();
+      if (!w.foxglove() && w.push({key, data, false})) w.flush();
+    });
+  });
+}
+
+void WebServer::send_foxglove_map(std::string cdr, std::uint64_t stamp_ns) {
+  auto data = std::make_shared<const std::string>(std::move(cdr));
+  asio::post(*shared_->ioc, [s = shared_, data, stamp_ns] {
+    s->foxglove_map = data;
+    s->foxglove_map_stamp_ns = stamp_ns;
+    for_each_session(*s, [&](WsSession& w) {
+      if (!w.foxglove()) return;
+      w.push_foxglove_map(*s);
+      w.flush();
     });
   });
 }
 
 ServerStats WebServer::stats() const {
   const Shared::Counters& c = shared_->counters;
-  return {c.connections.load(), c.clients.load(),      c.accepted.load(),   c.refused.load(),
-          c.requests.load(),    c.bad_requests.load(), c.dropped.load(),    c.ws_errors.load(),
-          c.coalesced.load(),   c.bytes_sent.load(),   c.frames_sent.load()};
+  return {c.connections.load(), c.clients.load(),      c.accepted.load(),    c.refused.load(),
+          c.requests.load(),    c.bad_requests.load(), c.dropped.load(),     c.ws_errors.load(),
+          c.coalesced.load(),   c.bytes_sent.load(),   c.frames_sent.load(), c.foxglove.load()};
 }
 
 }  // namespace esfleet::view

@@ -59,6 +59,7 @@ struct ServerStats {
   std::uint64_t coalesced = 0;     ///< queued messages replaced by a newer one of the same key
   std::uint64_t bytes_sent = 0;    ///< WebSocket payload bytes sent
   std::uint64_t frames_sent = 0;   ///< WebSocket messages sent
+  std::uint64_t foxglove = 0;      ///< Foxglove clients now (foxglove.websocket.v1)
 };
 
 class WebServer {
@@ -85,6 +86,10 @@ class WebServer {
   /// A JSON state under `key` ("robots", "status", ...): held for newcomers and, with
   /// `broadcast`, queued to every browser (replacing a waiting one of the same key).
   void send_state(const std::string& key, std::string json, bool broadcast);
+
+  /// The whole map for Foxglove clients (foxglove.hpp: an OccupancyGrid in CDR), held for
+  /// those that subscribe later and sent to those subscribed (replacing a waiting copy).
+  void send_foxglove_map(std::string cdr, std::uint64_t stamp_ns);
 
   ServerStats stats() const;
 
