@@ -144,7 +144,8 @@ async function markerOnCanvas(page, id) {
     const cx = sx / n + 0.5, cy = sy / n + 0.5;  // pixel centre
     v.setOverlays(true);
     v.fit();
-    return { status: r.status, stamp: r.stamp, centre: Array.from(centre), pixels: n,
+    // status: the state the marker was drawn in (a robot silent for 5 s is drawn "stale").
+    return { status: m.status, stamp: r.stamp, centre: Array.from(centre), pixels: n,
              world: [(a.cellX0 + cx) * cs, (a.cellYTop + 1 - cy) * cs] };
   }, id);
 }

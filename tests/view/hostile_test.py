@@ -5,10 +5,10 @@ usage: hostile_test.py BIN_DIR PROFILE DOMAIN PORT
 
 Starts esfleet-view, then: path traversal in many spellings, a 100 kB header, a body, a bad
 method, garbage bytes, an oversized WebSocket frame, malformed WebSocket frames (unmasked,
-reserved bits, a reserved opcode, a fragmented control frame, a bad close code, invalid UTF-8 text), a
-WebSocket on another path, 2000 connections at once and requests that never end. Each must be
-refused (a 4xx status, the WebSocket close code due, or the connection closed); afterwards the page is still
-served, nothing it holds leaked, and esfleet-view exits 130 on SIGINT (it never crashed).
+reserved bits, a reserved opcode, a fragmented control frame, a bad close code, invalid UTF-8
+text), a WebSocket on another path, 2000 connections at once and requests that never end. Each
+must be refused (a 4xx status, the WebSocket close code due, or the connection closed);
+afterwards the page is still served and esfleet-view exits 130 on SIGINT (it never crashed).
 """
 import base64
 import json
