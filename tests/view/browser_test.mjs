@@ -9,6 +9,7 @@
 //   4. a second browser that connects late gets the whole map (the same check as 1);
 //   5. the page survives the leader's restart: the banner, then the new epoch's map;
 //   6. a screenshot is written to ARTEFACTS/view.png;
+// clicking a robot follows it;
 // and the downloads: map.pgm and map.yaml equal the leader's, map.png has its size.
 //
 // usage: node browser_test.mjs BIN_DIR PROJECT_DIR DOMAIN PORT NODE_PREFIX ARTEFACTS
@@ -239,6 +240,19 @@ try {
   await pageA.screenshot({ path: path.join(artefacts, 'view.png') });
   check(fs.statSync(path.join(artefacts, 'view.png')).size > 10000,
         `6. screenshot written: ${path.join(artefacts, 'view.png')}`);
+  // Click r1's marker: the view follows it (centred on it).
+  const box = await pageA.locator('#view').boundingBox();
+  const mk = await pageA.evaluate(() => window.esfleetView.marker('r1'));
+  await pageA.mouse.click(box.x + mk.sx, box.y + mk.sy);
+  await sleep(300);
+  const followed = await pageA.evaluate(() => {
+    const v = window.esfleetView, m = v.marker('r1');
+    const c = document.getElementById('view');
+    return { follow: v.state().follow, dx: m.sx - c.width / 2, dy: m.sy - c.height / 2 };
+  });
+  check(followed.follow === 'r1' && Math.hypot(followed.dx, followed.dy) < 3,
+        `clicking r1 follows it (marker ${Math.hypot(followed.dx, followed.dy).toFixed(1)} px ` +
+        'from the centre)');
   await pageA.setViewportSize({ width: 1300, height: 1600 });
   for (const f of followers) await stop(f);  // they write their trajectories
   for (const id of ['r1', 'r2']) {
