@@ -243,10 +243,16 @@ bool FleetApp::check_children(double dt_s) {
     spdlog::info("all {} followers tracking after {:.1f} s: real-time window starts", o_.robots,
                  window_start_s_);
   }
-  if (view_.started()) sample(view_, dt_s);
-  std::vector<ChildProcess*> watched = children();
-  if (view_.started()) watched.push_back(&view_);
-  for (ChildProcess* c : watched) {
+  if (view_.started()) {
+    sample(view_, dt_s);
+    // The view only watches: when it ends (its port taken, say) the fleet goes on without it.
+    if (view_.exited && !view_gone_logged_) {
+      spdlog::warn("esfleet-view exited (code {}): the fleet goes on without it; see {}",
+                   view_.exit_code, view_.log);
+      view_gone_logged_ = true;
+    }
+  }
+  for (ChildProcess* c : children()) {
     if (c->exited && failure_.empty()) {
       failure_ = fmt::format("{} exited early (code {}); see {}", c->name, c->exit_code, c->log);
     }
