@@ -3,6 +3,7 @@
 #include <fastcdr/Cdr.h>
 #include <fastcdr/FastBuffer.h>
 
+#include <cmath>
 #include <cstring>
 #include <nlohmann/json.hpp>
 
@@ -49,6 +50,54 @@ constexpr const char* kOccupancyGridSchema =
     "float64 z 0\n"
     "float64 w 1\n";
 
+constexpr const char* kPoseArraySchema =
+    "std_msgs/Header header\n"
+    "geometry_msgs/Pose[] poses\n"
+    "================================================================================\n"
+    "MSG: std_msgs/Header\n"
+    "builtin_interfaces/Time stamp\n"
+    "string frame_id\n"
+    "================================================================================\n"
+    "MSG: builtin_interfaces/Time\n"
+    "int32 sec\n"
+    "uint32 nanosec\n"
+    "================================================================================\n"
+    "MSG: geometry_msgs/Pose\n"
+    "Point position\n"
+    "Quaternion orientation\n"
+    "================================================================================\n"
+    "MSG: geometry_msgs/Point\n"
+    "float64 x\n"
+    "float64 y\n"
+    "float64 z\n"
+    "================================================================================\n"
+    "MSG: geometry_msgs/Quaternion\n"
+    "float64 x 0\n"
+    "float64 y 0\n"
+    "float64 z 0\n"
+    "float64 w 1\n";
+
+/// Little-endian CDR by hand for PoseArray (plain fields, alignment from the encapsulation's
+/// end).
+class CdrWriter {
+ public:
+  CdrWriter() { out_.assign("\x00\x01\x00\x00", 4); }
+  template <class T>
+  void put(T v) {
+    while ((out_.size() - 4) % sizeof(T) != 0) out_.push_back('\0');
+    out_.append(reinterpret_cast<const char*>(&v), sizeof v);
+  }
+  void put_string(const std::string& s) {
+    put(static_cast<std::uint32_t>(s.size() + 1));
+    out_ += s;
+    out_.push_back('\0');
+  }
+  std::string take() { return std::move(out_); }
+
+ private:
+  std::string out_;
+};
+
 std::string_view trim(std::string_view s) {
   while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
   while (!s.empty() && (s.back() == ' ' || s.back() == '\t')) s.remove_suffix(1);
@@ -88,31 +137,38 @@ std::string foxglove_advertise() {
                            {"encoding", "cdr"},
                            {"schemaName", "nav_msgs/msg/OccupancyGrid"},
                            {"schema", kOccupancyGridSchema},
+                           {"schemaEncoding", "ros2msg"}},
+                          {{"id", kFoxgloveRobotsChannel},
+                           {"topic", "/robots"},
+                           {"encoding", "cdr"},
+                           {"schemaName", "geometry_msgs/msg/PoseArray"},
+                           {"schema", kPoseArraySchema},
                            {"schemaEncoding", "ros2msg"}}}}}
       .dump();
 }
 
-FoxgloveRequest parse_foxglove_request(std::string_view text, std::uint32_t current) {
+FoxgloveRequest parse_foxglove_request(std::string_view text) {
   FoxgloveRequest r;
   const nlohmann::json j = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
   if (!j.is_object() || !j.contains("op") || !j["op"].is_string()) return r;
+  const auto id_of = [](const nlohmann::json& v) -> std::optional<std::uint32_t> {
+    if (!v.is_number_unsigned() || v.get<std::uint64_t>() > 0xffffffffu) return std::nullopt;
+    return v.get<std::uint32_t>();
+  };
   const std::string op = j["op"];
   if (op == "subscribe" && j.contains("subscriptions") && j["subscriptions"].is_array()) {
     for (const auto& s : j["subscriptions"]) {
-      if (s.is_object() && s.contains("id") && s["id"].is_number_unsigned() &&
-          s.contains("channelId") && s["channelId"].is_number_unsigned() &&
-          s["channelId"].get<std::uint64_t>() == kFoxgloveMapChannel &&
-          s["id"].get<std::uint64_t>() <= 0xffffffffu) {
-        r.subscribe_map = s["id"].get<std::uint32_t>();
+      if (!s.is_object() || !s.contains("id") || !s.contains("channelId")) continue;
+      const auto id = id_of(s["id"]), channel = id_of(s["channelId"]);
+      if (id && channel &&
+          (*channel == kFoxgloveMapChannel || *channel == kFoxgloveRobotsChannel)) {
+        r.subscribe.emplace_back(*id, *channel);
       }
     }
   } else if (op == "unsubscribe" && j.contains("subscriptionIds") &&
              j["subscriptionIds"].is_array()) {
-    for (const auto& id : j["subscriptionIds"]) {
-      if (id.is_number_unsigned() && id.get<std::uint64_t>() == current) {
-        r.unsubscribe = true;
-        r.unsubscribe_id = current;
-      }
+    for (const auto& v : j["subscriptionIds"]) {
+      if (const auto id = id_of(v)) r.unsubscribe.push_back(*id);
     }
   }
   return r;
@@ -139,6 +195,21 @@ std::string occupancy_grid_cdr(const GridMap& map, double stamp_s) {
   grid.serialize(cdr);
   out.resize(cdr.getSerializedDataLength());
   return out;
+}
+
+std::string pose_array_cdr(const std::vector<PlanarPose>& poses, double stamp_s) {
+  CdrWriter w;
+  const double sec = std::floor(stamp_s);
+  w.put(static_cast<std::int32_t>(sec));
+  w.put(static_cast<std::uint32_t>((stamp_s - sec) * 1e9));
+  w.put_string("map");
+  w.put(static_cast<std::uint32_t>(poses.size()));
+  for (const PlanarPose& p : poses) {
+    for (double v : {p.x, p.y, 0.0, 0.0, 0.0, std::sin(p.theta / 2), std::cos(p.theta / 2)}) {
+      w.put(v);
+    }
+  }
+  return w.take();
 }
 
 }  // namespace esfleet::view

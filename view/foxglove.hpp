@@ -1,14 +1,17 @@
 #pragma once
 // The Foxglove WebSocket protocol (foxglove.websocket.v1; foxglove.sdk.v1 is the same under the
-// current name), as far as esfleet-view speaks it: one channel, /map, a nav_msgs/msg/OccupancyGrid
-// in ROS 2 CDR with its ros2msg schema, so that a user's Foxglove or Lichtblick app connects to
-// the view directly and sees the whole map (no such viewer handles tiled updates; the page does).
+// current name), as far as esfleet-view speaks it: two channels in ROS 2 CDR with their ros2msg
+// schemas, /map (nav_msgs/msg/OccupancyGrid, the whole map: no such viewer handles tiled
+// updates; the page does) and /robots (geometry_msgs/msg/PoseArray, every robot's pose), so that
+// a user's Foxglove or Lichtblick app connects to the view directly.
 // The JSON operations and the binary MessageData layout are the protocol's (docs/view.md).
 
 #include <cstdint>
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
+#include <vector>
 
 #include "esfleet/core/grid_map.hpp"
 
@@ -17,26 +20,26 @@ namespace esfleet::view {
 /// The subprotocols a Foxglove client may ask for, in the order the server prefers them.
 inline constexpr std::string_view kFoxgloveSubprotocols[] = {"foxglove.websocket.v1",
                                                              "foxglove.sdk.v1"};
-/// The map's channel id.
+/// The channel ids: the map, the robots' poses.
 inline constexpr std::uint32_t kFoxgloveMapChannel = 1;
+inline constexpr std::uint32_t kFoxgloveRobotsChannel = 2;
 
 /// The subprotocol to answer with for a Sec-WebSocket-Protocol request header (comma-separated
 /// offers), or std::nullopt when none is Foxglove's.
 std::optional<std::string> foxglove_subprotocol(std::string_view offered);
 
-/// {"op":"serverInfo",...} and {"op":"advertise",...} (the /map channel), sent on connect.
+/// {"op":"serverInfo",...} and {"op":"advertise",...} (both channels), sent on connect.
 std::string foxglove_server_info();
 std::string foxglove_advertise();
 
-/// The subscription id a client's {"op":"subscribe"} text gives the map channel; std::nullopt
-/// for anything else (other operations, other channels, malformed JSON). `unsubscribed` is set
-/// when the text unsubscribes `current`.
+/// What a client's text asks: {"op":"subscribe"} (subscription id -> one of our channels) or
+/// {"op":"unsubscribe"} (subscription ids). Unknown channels, other operations and malformed
+/// JSON give an empty request.
 struct FoxgloveRequest {
-  std::optional<std::uint32_t> subscribe_map;  ///< subscription id for the map channel
-  bool unsubscribe = false;                    ///< unsubscribes the given id
-  std::uint32_t unsubscribe_id = 0;
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> subscribe;  ///< (subscription, channel)
+  std::vector<std::uint32_t> unsubscribe;                          ///< subscription ids
 };
-FoxgloveRequest parse_foxglove_request(std::string_view text, std::uint32_t current);
+FoxgloveRequest parse_foxglove_request(std::string_view text);
 
 /// A binary MessageData frame: opcode 0x01, subscription id, receive time (ns), payload.
 std::string foxglove_message_data(std::uint32_t subscription, std::uint64_t stamp_ns,
@@ -45,5 +48,12 @@ std::string foxglove_message_data(std::uint32_t subscription, std::uint64_t stam
 /// The whole map as a nav_msgs/msg/OccupancyGrid (dds::grid_to_ros over all tiles, frame "map")
 /// serialised as ROS 2 CDR (encapsulation header first), what the /map channel carries.
 std::string occupancy_grid_cdr(const GridMap& map, double stamp_s);
+
+/// A robot's position and heading in the map frame.
+struct PlanarPose {
+  double x = 0.0, y = 0.0, theta = 0.0;
+};
+/// The robots as a geometry_msgs/msg/PoseArray in ROS 2 CDR (frame "map"), what /robots carries.
+std::string pose_array_cdr(const std::vector<PlanarPose>& poses, double stamp_s);
 
 }  // namespace esfleet::view

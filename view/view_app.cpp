@@ -136,6 +136,9 @@ int ViewApp::run() {
     serve_downloads();
     if (now >= next_robots) {
       send_robots(now);
+      const bool map_too = now >= next_foxglove;
+      send_foxglove(map_too);
+      if (map_too) next_foxglove = now + 1.0;
       next_robots = now + o_.robots_period;
     }
     if (now >= next_trails) {
@@ -145,10 +148,6 @@ int ViewApp::run() {
     if (now >= next_status) {
       send_status(now);
       next_status = now + 0.5;
-    }
-    if (now >= next_foxglove) {
-      send_foxglove();
-      next_foxglove = now + 1.0;
     }
     if (o_.timeout > 0 && now >= o_.timeout) {
       spdlog::info("--timeout {} s reached", o_.timeout);
@@ -376,17 +375,24 @@ void ViewApp::send_status(double now) {
   server_->send_state("stats", stats.dump(), false);
 }
 
-void ViewApp::send_foxglove() {
-  // The whole map, at most once a second, only when it changed and a Foxglove client listens
-  // (docs/view.md: Foxglove has no tiled map updates).
+void ViewApp::send_foxglove(bool map_too) {
+  // Only while a Foxglove client listens. The robots every call; the whole map at most once a
+  // second and only when it changed (Foxglove has no tiled map updates).
   const mapshare::MapReplica& replica = map_->replica();
-  if (!replica.has_map() || server_->stats().foxglove == 0) return;
+  if (server_->stats().foxglove == 0) return;
+  const std::int64_t now_ns = realtime_ns();
+  const double now = static_cast<double>(now_ns) / 1e9;
+  std::vector<PlanarPose> poses;
+  poses.reserve(robots_.size());
+  for (const auto& [id, r] : robots_) poses.push_back({r.pose.x, r.pose.y, r.pose.theta});
+  server_->send_foxglove(kFoxgloveRobotsChannel, pose_array_cdr(poses, now),
+                         static_cast<std::uint64_t>(now_ns));
+  if (!map_too || !replica.has_map()) return;
   const std::pair<std::uint32_t, std::uint64_t> version{epoch_shown_, tiles_forwarded_};
   if (version == foxglove_version_) return;
   foxglove_version_ = version;
-  const std::int64_t now_ns = realtime_ns();
-  server_->send_foxglove_map(occupancy_grid_cdr(replica.map(), static_cast<double>(now_ns) / 1e9),
-                             static_cast<std::uint64_t>(now_ns));
+  server_->send_foxglove(kFoxgloveMapChannel, occupancy_grid_cdr(replica.map(), now),
+                         static_cast<std::uint64_t>(now_ns));
 }
 
 void ViewApp::serve_downloads() {

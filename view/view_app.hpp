@@ -72,8 +72,9 @@ class ViewApp {
   void send_robots(double now);
   void send_trails();
   void send_status(double now);
-  /// The whole map to Foxglove clients, when it changed (foxglove.hpp).
-  void send_foxglove();
+  /// The robots, and with `map_too` the whole map when it changed, to Foxglove clients
+  /// (foxglove.hpp).
+  void send_foxglove(bool map_too);
   void serve_downloads();
   HttpResponse make_download(const std::string& name) const;
 

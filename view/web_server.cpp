@@ -135,14 +135,13 @@ void WebServer::send_state(const std::string& key, std::string json, bool broadc
   });
 }
 
-void WebServer::send_foxglove_map(std::string cdr, std::uint64_t stamp_ns) {
+void WebServer::send_foxglove(std::uint32_t channel, std::string cdr, std::uint64_t stamp_ns) {
   auto data = std::make_shared<const std::string>(std::move(cdr));
-  asio::post(*shared_->ioc, [s = shared_, data, stamp_ns] {
-    s->foxglove_map = data;
-    s->foxglove_map_stamp_ns = stamp_ns;
+  asio::post(*shared_->ioc, [s = shared_, channel, data, stamp_ns] {
+    s->foxglove_latest[channel] = {data, stamp_ns};
     for_each_session(*s, [&](WsSession& w) {
       if (!w.foxglove()) return;
-      w.push_foxglove_map(*s);
+      w.push_foxglove(*s, channel);
       w.flush();
     });
   });

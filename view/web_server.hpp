@@ -87,9 +87,10 @@ class WebServer {
   /// `broadcast`, queued to every browser (replacing a waiting one of the same key).
   void send_state(const std::string& key, std::string json, bool broadcast);
 
-  /// The whole map for Foxglove clients (foxglove.hpp: an OccupancyGrid in CDR), held for
-  /// those that subscribe later and sent to those subscribed (replacing a waiting copy).
-  void send_foxglove_map(std::string cdr, std::uint64_t stamp_ns);
+  /// A message of Foxglove channel `channel` (foxglove.hpp: the map as an OccupancyGrid, the
+  /// robots as a PoseArray, in CDR), held for clients that subscribe later and sent to those
+  /// subscribed (replacing a waiting copy).
+  void send_foxglove(std::uint32_t channel, std::string cdr, std::uint64_t stamp_ns);
 
   ServerStats stats() const;
 

@@ -52,9 +52,9 @@ struct WebServer::Shared {
   std::map<std::string, std::shared_ptr<const std::string>> tiles;  ///< newest frame per tile
   /// States for newcomers, in the order they are sent ("map" first).
   std::map<std::string, std::shared_ptr<const std::string>> states;
-  /// The newest whole map for Foxglove clients (OccupancyGrid CDR) and its time.
-  std::shared_ptr<const std::string> foxglove_map;
-  std::uint64_t foxglove_map_stamp_ns = 0;
+  /// For Foxglove clients, per channel: the newest message (CDR) and its time.
+  std::map<std::uint32_t, std::pair<std::shared_ptr<const std::string>, std::uint64_t>>
+      foxglove_latest;
 
   struct Counters {
     std::atomic<std::uint64_t> connections{0}, clients{0}, accepted{0}, refused{0}, requests{0},
@@ -102,8 +102,9 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
   void clear_queue() { queue_.clear(); }
   void flush() { do_write(); }
   bool foxglove() const { return foxglove_; }
-  /// Queues the whole map for a Foxglove client subscribed to it (replacing a waiting one).
-  void push_foxglove_map(const WebServer::Shared& s);
+  /// Queues the newest message of `channel` for a Foxglove client subscribed to it (replacing
+  /// a waiting one of the channel).
+  void push_foxglove(const WebServer::Shared& s, std::uint32_t channel);
 
  private:
   void on_accept(beast::error_code ec);
@@ -124,8 +125,8 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
   bool writing_ = false;
   bool closed_ = false;
   bool registered_ = false;
-  bool foxglove_ = false;                      ///< a Foxglove client (subprotocol), not the page
-  std::optional<std::uint32_t> foxglove_sub_;  ///< its subscription id of the map channel
+  bool foxglove_ = false;  ///< a Foxglove client (subprotocol), not the page
+  std::map<std::uint32_t, std::uint32_t> foxglove_subs_;  ///< channel -> subscription id
 };
 
 /// Serves HTTP on an accepted connection (http_session.cpp); upgrades to a WsSession on /ws.

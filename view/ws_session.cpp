@@ -46,11 +46,13 @@ bool WsSession::push(OutMessage m) {
   return true;
 }
 
-void WsSession::push_foxglove_map(const WebServer::Shared& s) {
-  if (!foxglove_sub_ || !s.foxglove_map) return;
-  push({"fg:map",
+void WsSession::push_foxglove(const WebServer::Shared& s, std::uint32_t channel) {
+  const auto sub = foxglove_subs_.find(channel);
+  const auto latest = s.foxglove_latest.find(channel);
+  if (sub == foxglove_subs_.end() || latest == s.foxglove_latest.end()) return;
+  push({"fg:" + std::to_string(channel),
         std::make_shared<const std::string>(
-            foxglove_message_data(*foxglove_sub_, s.foxglove_map_stamp_ns, *s.foxglove_map)),
+            foxglove_message_data(sub->second, latest->second.second, *latest->second.first)),
         true});
 }
 
@@ -104,14 +106,15 @@ void WsSession::on_read(beast::error_code ec, std::size_t) {
   }
   if (foxglove_ && ws_.got_text()) {
     const std::string text = beast::buffers_to_string(in_.data());
-    const FoxgloveRequest r = parse_foxglove_request(text, foxglove_sub_.value_or(~0u));
-    if (r.subscribe_map) {
-      foxglove_sub_ = r.subscribe_map;
-      push_foxglove_map(slot_->shared());
-      do_write();
-    } else if (r.unsubscribe) {
-      foxglove_sub_.reset();
+    const FoxgloveRequest r = parse_foxglove_request(text);
+    for (const auto& [id, channel] : r.subscribe) {
+      foxglove_subs_[channel] = id;
+      push_foxglove(slot_->shared(), channel);
     }
+    for (std::uint32_t id : r.unsubscribe) {
+      std::erase_if(foxglove_subs_, [id](const auto& cs) { return cs.second == id; });
+    }
+    do_write();
   }
   in_.consume(in_.size());  // the page sends nothing the server needs; read only to answer pings
   do_read();

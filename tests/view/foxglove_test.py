@@ -5,9 +5,10 @@ usage: foxglove_test.py BIN_DIR PROJECT_DIR DOMAIN PORT
 
 A leader maps 150 CSAIL scans; a client connects to esfleet-view's /ws asking for the
 subprotocol foxglove.websocket.v1 and must get it, then serverInfo and an advertise of /map
-(nav_msgs/msg/OccupancyGrid, cdr, ros2msg schema); after subscribing, a MessageData frame whose
-payload is a ROS 2 CDR OccupancyGrid: resolution 0.05, width x height cells, values -1/0/100,
-with as many occupied and free cells as the view's map.pgm download. A client asking for no
+(nav_msgs/msg/OccupancyGrid, cdr, ros2msg schema) and /robots (geometry_msgs/msg/PoseArray);
+after subscribing to both, MessageData frames: a ROS 2 CDR OccupancyGrid (resolution 0.05,
+width x height cells, values -1/0/100, as many occupied and free cells as the view's map.pgm
+download) and a PoseArray with the leader's pose. A client asking for no
 subprotocol still gets the page's protocol.
 """
 import base64
@@ -145,17 +146,37 @@ try:
     check(op == 1 and info.get("op") == "serverInfo", "serverInfo first")
     op, adv = read_message(s)
     adv = json.loads(adv)
-    ch = adv["channels"][0] if adv.get("op") == "advertise" and adv.get("channels") else {}
-    check(ch.get("topic") == "/map" and ch.get("encoding") == "cdr" and
-          ch.get("schemaName") == "nav_msgs/msg/OccupancyGrid" and
+    channels = {c["topic"]: c for c in adv.get("channels", [])} if adv.get("op") == "advertise" else {}
+    ch = channels.get("/map", {})
+    check(ch.get("encoding") == "cdr" and ch.get("schemaName") == "nav_msgs/msg/OccupancyGrid" and
           ch.get("schemaEncoding") == "ros2msg" and "MSG: nav_msgs/MapMetaData" in ch.get("schema", ""),
           "advertise: /map as nav_msgs/msg/OccupancyGrid, cdr, ros2msg schema")
-    send_text(s, json.dumps({"op": "subscribe", "subscriptions": [{"id": 7, "channelId": ch["id"]}]}))
+    rch = channels.get("/robots", {})
+    check(rch.get("encoding") == "cdr" and rch.get("schemaName") == "geometry_msgs/msg/PoseArray" and
+          "MSG: geometry_msgs/Pose" in rch.get("schema", ""),
+          "advertise: /robots as geometry_msgs/msg/PoseArray")
+    send_text(s, json.dumps({"op": "subscribe", "subscriptions": [
+        {"id": 7, "channelId": ch["id"]}, {"id": 8, "channelId": rch["id"]}]}))
     s.settimeout(10)
-    op, msg = read_message(s)
-    check(op == 2 and msg[0] == 1 and struct.unpack_from("<I", msg, 1)[0] == 7,
-          "MessageData (opcode 1) for subscription 7")
-    frame, res, width, height, origin, data = occupancy_grid(msg[13:])
+    got = {}
+    while len(got) < 2:
+        op, msg = read_message(s)
+        if op == 2 and msg[0] == 1:
+            got[struct.unpack_from("<I", msg, 1)[0]] = msg[13:]
+    check(set(got) == {7, 8}, "MessageData (opcode 1) for subscriptions 7 (/map) and 8 (/robots)")
+    pa = got[8]
+    assert pa[:4] == b"\x00\x01\x00\x00"
+    (n,) = struct.unpack_from("<I", pa, 12)
+    frame_id = pa[16:16 + n - 1].decode()
+    pos = 16 + n
+    pos = (pos - 4 + 3) // 4 * 4 + 4
+    (count,) = struct.unpack_from("<I", pa, pos)
+    pos = (pos + 4 - 4 + 7) // 8 * 8 + 4
+    poses = [struct.unpack_from("<7d", pa, pos + 56 * i) for i in range(count)]
+    check(frame_id == "map" and count >= 1 and len(pa) == pos + 56 * count and
+          all(abs(q[3] ** 2 + q[4] ** 2 + q[5] ** 2 + q[6] ** 2 - 1) < 1e-9 for q in poses),
+          f"PoseArray in frame map: {count} robot(s) (the leader), unit quaternions")
+    frame, res, width, height, origin, data = occupancy_grid(got[7])
     check(frame == "map" and abs(res - 0.05) < 1e-6 and width * height == len(data) and
           set(data) <= {-1, 0, 100},
           f"OccupancyGrid: frame {frame}, resolution {res:.3f}, {width}x{height}, values -1/0/100")
