@@ -88,18 +88,19 @@ ViewApp::ViewApp(ViewOptions options, const std::atomic<bool>& stop)
         },
         dds::kAllPartitions);
   });
-  app::setup_step("web server", [&] {
-    server_ = std::make_unique<WebServer>(
-        o_.bind, static_cast<std::uint16_t>(o_.port), o_.limits,
-        [this](const std::string& name, std::function<void(HttpResponse)> done) {
-          std::lock_guard lock(mutex_);
-          if (downloads_.size() >= 16) {  // a flood of downloads waits for nobody
-            done({503, "text/plain; charset=utf-8", "busy: too many downloads waiting\n", ""});
-            return;
-          }
-          downloads_.push_back({name, std::move(done)});
-        });
-  });
+  app::setup_step(
+      "web server (--bind " + o_.bind + " --port " + std::to_string(o_.port) + ")", [&] {
+        server_ = std::make_unique<WebServer>(
+            o_.bind, static_cast<std::uint16_t>(o_.port), o_.limits,
+            [this](const std::string& name, std::function<void(HttpResponse)> done) {
+              std::lock_guard lock(mutex_);
+              if (downloads_.size() >= 16) {  // a flood of downloads waits for nobody
+                done({503, "text/plain; charset=utf-8", "busy: too many downloads waiting\n", ""});
+                return;
+              }
+              downloads_.push_back({name, std::move(done)});
+            });
+      });
   spdlog::info("serving the fleet's view on http://{}:{}/ (DDS domain {}, map '{}'){}", o_.bind,
                server_->port(), o_.domain, o_.map_id.empty() ? "(any)" : o_.map_id,
                o_.secure.empty() ? "" : "; DDS Security on");
