@@ -14,6 +14,7 @@ subprotocol still gets the page's protocol.
 import base64
 import json
 import os
+import shutil
 import socket
 import struct
 import subprocess
@@ -207,5 +208,7 @@ finally:
 if failures:
     for name in ("view", "leader"):
         print(f"--- {name}.log\n" + open(f"{work}/{name}.log").read()[-2000:])
+shutil.rmtree(work, ignore_errors=True)
+if failures:
     sys.exit(1)
 print("Foxglove client served")
