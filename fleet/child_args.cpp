@@ -49,4 +49,10 @@ std::vector<std::string> sim_argv(const FleetOptions& o, const std::string& bin_
       split_args(o.sim_args));
 }
 
+std::vector<std::string> view_argv(const FleetOptions& o, const std::string& bin_dir) {
+  return with(
+      with({bin_dir + "/esfleet-view", "--port", std::to_string(o.view_port)}, dds_args(o, "view")),
+      split_args(o.view_args));
+}
+
 }  // namespace esfleet::fleet

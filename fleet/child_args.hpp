@@ -28,4 +28,7 @@ std::vector<std::string> follower_argv(const FleetOptions& o, const std::string&
 /// --sim-args.
 std::vector<std::string> sim_argv(const FleetOptions& o, const std::string& bin_dir);
 
+/// BIN/esfleet-view on --view's port; then the DDS flags (identity "view") and --view-args.
+std::vector<std::string> view_argv(const FleetOptions& o, const std::string& bin_dir);
+
 }  // namespace esfleet::fleet

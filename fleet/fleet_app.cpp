@@ -2,6 +2,8 @@
 
 #include <spdlog/spdlog.h>
 
+#include <unistd.h>
+
 #include <csignal>
 #include <filesystem>
 #include <iostream>
@@ -83,6 +85,8 @@ FleetApp::FleetApp(FleetOptions options, const std::atomic<bool>& stop)
   leader_.log = o_.out + "/leader.log";
   sim_.name = "sim";
   sim_.log = o_.out + "/sim.log";
+  view_.name = "view";
+  view_.log = o_.out + "/view.log";
   followers_.resize(static_cast<std::size_t>(o_.robots));
   for (int k = 1; k <= o_.robots; ++k) {
     ChildProcess& f = followers_[static_cast<std::size_t>(k - 1)];
@@ -146,6 +150,13 @@ std::vector<ChildProcess*> FleetApp::children() {
 void FleetApp::start_leader() {
   try {
     start(leader_, leader_argv(o_, bin_dir_));
+    if (o_.view_port >= 0) {
+      start(view_, view_argv(o_, bin_dir_));
+      char host[256] = "localhost";
+      gethostname(host, sizeof host - 1);
+      spdlog::info("the fleet in a browser: http://{}:{}/ (esfleet-view, log {})", host,
+                   o_.view_port, view_.log);
+    }
   } catch (const std::exception& e) {
     fail(e.what());
   }
@@ -232,6 +243,15 @@ bool FleetApp::check_children(double dt_s) {
     spdlog::info("all {} followers tracking after {:.1f} s: real-time window starts", o_.robots,
                  window_start_s_);
   }
+  if (view_.started()) {
+    sample(view_, dt_s);
+    // The view only watches: when it ends (its port taken, say) the fleet goes on without it.
+    if (view_.exited && !view_gone_logged_) {
+      spdlog::warn("esfleet-view exited (code {}): the fleet goes on without it; see {}",
+                   view_.exit_code, view_.log);
+      view_gone_logged_ = true;
+    }
+  }
   for (ChildProcess* c : children()) {
     if (c->exited && failure_.empty()) {
       failure_ = fmt::format("{} exited early (code {}); see {}", c->name, c->exit_code, c->log);
@@ -256,7 +276,7 @@ void FleetApp::draw(double dt_s) {
 }
 
 void FleetApp::stop_children() {
-  stop_all({&sim_}, std::chrono::seconds(10));
+  stop_all({&sim_, &view_}, std::chrono::seconds(10));
   std::vector<ChildProcess*> followers;
   for (auto& f : followers_) followers.push_back(&f);
   stop_all(followers, std::chrono::seconds(20));

@@ -87,6 +87,8 @@ class FleetApp {
   FleetMonitor monitor_;
   StatusTable table_;
   ChildProcess leader_, sim_;
+  ChildProcess view_;  ///< esfleet-view with --view (not in children(): no table row)
+  bool view_gone_logged_ = false;
   std::vector<ChildProcess> followers_;
 
   // Declared last, destroyed first: the readers before the node, both before the queues.

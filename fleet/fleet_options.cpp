@@ -26,6 +26,7 @@ std::string FleetOptions::secure_dir_for(const std::string& id) const {
 
 std::vector<std::string> FleetOptions::identities() const {
   std::vector<std::string> ids = {"leader", "sim", "monitor"};
+  if (view_port >= 0) ids.push_back("view");
   for (int k = 1; k <= robots; ++k) ids.push_back(robot_name(k));
   return ids;
 }
@@ -38,6 +39,7 @@ void FleetOptions::validate() const {
   if (domain < 0 || domain > 232) throw UsageError("--domain must be in [0, 232]");
   if (!(rate > 0.0)) throw UsageError("--rate must be > 0");
   if (!(leader_rate >= 0.0)) throw UsageError("--leader-rate must be >= 0");
+  if (view_port < -1 || view_port > 65535) throw UsageError("--view must be in [0, 65535]");
   for (const auto& [flag, path] :
        {std::pair{"--world", world}, std::pair{"--log", log}, std::pair{"--profile", profile}}) {
     if (!fs::is_regular_file(path))
@@ -53,7 +55,8 @@ void FleetOptions::validate() const {
     }
   }
   const std::string bin = bin_directory();
-  for (const char* prog : {"esfleet-leader", "esfleet-follower", "esfleet-sim"}) {
+  for (const char* prog : {"esfleet-leader", "esfleet-follower", "esfleet-sim", "esfleet-view"}) {
+    if (std::string(prog) == "esfleet-view" && view_port < 0) continue;
     if (access((bin + "/" + prog).c_str(), X_OK) != 0) {
       throw UsageError("--bin-dir " + bin + ": no executable " + prog);
     }
@@ -82,7 +85,8 @@ void add_fleet_flags(CLI::App& cli, FleetOptions& o) {
       ->capture_default_str();
   cli.add_option("--secure", o.secure,
                  "DDS Security for every program: DIR/<id> per identity (leader, robot-1..N, "
-                 "sim, and monitor for this launcher), as deploy/security/make-fleet-certs.sh "
+                 "sim, monitor for this launcher, view with --view), as "
+                 "deploy/security/make-fleet-certs.sh "
                  "makes them (docs/security.md)");
   cli.add_option("--world", o.world, "world map for the simulator (ROS map YAML)")
       ->capture_default_str();
@@ -106,6 +110,11 @@ void add_fleet_flags(CLI::App& cli, FleetOptions& o) {
                "start the simulator and followers only once the leader's map is complete (the "
                "fleet joins a mapped building; scale measurements). Default: all at once, the "
                "followers localise while the map grows");
+  cli.add_option("--view", o.view_port,
+                 "also start esfleet-view on this port: the fleet in a browser at "
+                 "http://HOST:PORT/ (docs/view.md; 0 = any free port, see OUT/view.log)")
+      ->check(CLI::Range(0, 65535));
+  cli.add_option("--view-args", o.view_args, "extra esfleet-view flags (one string)");
   cli.add_option("--bin-dir", o.bin_dir,
                  "where the esfleet programs are (default: next to this one)");
   cli.add_option("--live", o.live, "redraw a status table every second (default: on a terminal)");

@@ -48,6 +48,11 @@ struct FleetOptions {
   std::string sim_args;
   /// Start the simulator and the followers only once the leader's map is complete.
   bool wait_map = false;
+  /// esfleet-view's port: the fleet in a browser at http://HOST:PORT/ (docs/view.md); -1 = no
+  /// view, 0 = any free port (in OUT/view.log).
+  int view_port = -1;
+  /// Extra esfleet-view flags, one string split at white space (e.g. "--bind 127.0.0.1").
+  std::string view_args;
   /// Where the esfleet programs are; empty = next to this executable (bin_directory()).
   std::string bin_dir;
   /// Redraw the status table every second (else print it every 5 s); default: on a terminal.
@@ -59,7 +64,8 @@ struct FleetOptions {
   std::string bin_directory() const;
   /// The DDS Security directory of identity `id` (DIR/<id>); empty when --secure is off.
   std::string secure_dir_for(const std::string& id) const;
-  /// Every DDS identity of the fleet: leader, sim, monitor (this launcher), robot-1..N.
+  /// Every DDS identity of the fleet: leader, sim, monitor (this launcher), view (with --view),
+  /// robot-1..N.
   std::vector<std::string> identities() const;
 
   /// Throws app::UsageError naming the flag: a value out of range, a missing --world, --log or

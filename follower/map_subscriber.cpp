@@ -93,8 +93,12 @@ void MapSubscriber::apply_tile(const mapshare::TileMessage& t, const std::string
   const std::string where = fmt::format("({}, {})", t.tx, t.ty);
   switch (outcome) {
     case Applied::kApplied:
-      stats_.latency_ms.push_back(
-          static_cast<double>(realtime_ns() - static_cast<std::int64_t>(t.stamp_ns)) / 1e6);
+      if (record_applied_) {
+        applied_.push_back({t.key(), t.stamp_ns});
+      } else {
+        stats_.latency_ms.push_back(
+            static_cast<double>(realtime_ns() - static_cast<std::int64_t>(t.stamp_ns)) / 1e6);
+      }
       break;
     case Applied::kStale:
       // An equal version is normal (the leader resends a tile whole at the version a delta

@@ -16,6 +16,7 @@
 #include <mutex>
 #include <set>
 #include <string>
+#include <utility>
 #include <variant>
 #include <vector>
 
@@ -40,6 +41,18 @@ class MapSubscriber {
   /// Applies what arrived (waiting up to `timeout` for something); returns true if the map
   /// changed (a tile or a delta was applied).
   bool spin_once(std::chrono::milliseconds timeout);
+
+  /// A tile (whole or delta) applied to the replica, with the leader's publish stamp.
+  struct AppliedTile {
+    TileKey key;
+    std::uint64_t stamp_ns = 0;
+  };
+  /// From now on, remember every applied tile for take_applied() (esfleet-view: it forwards
+  /// the changed tiles) instead of adding its latency to stats().latency_ms, so that a
+  /// long-running viewer's memory stays bounded.
+  void record_applied() { record_applied_ = true; }
+  /// The tiles applied since the last call, in order (a tile may appear more than once).
+  std::vector<AppliedTile> take_applied() { return std::exchange(applied_, {}); }
 
   const mapshare::MapReplica& replica() const { return replica_; }
   const FollowStats& stats() const { return stats_; }
@@ -68,6 +81,8 @@ class MapSubscriber {
   std::condition_variable cv_;
   std::deque<Received> queue_;
   std::set<std::string> logged_;
+  bool record_applied_ = false;
+  std::vector<AppliedTile> applied_;
   // Readers last: they are destroyed first, so no callback runs into a dead queue.
   dds::TileReader tiles_;
   dds::TileDeltaReader deltas_;

@@ -6,12 +6,14 @@ packages=(
   build-essential cmake pkg-config python3
   libeigen3-dev libopencv-dev zlib1g-dev libpng-dev
   libcli11-dev libspdlog-dev libyaml-cpp-dev nlohmann-json3-dev
+  libboost-dev  # esfleet-view: Boost.Beast and Boost.Asio (header-only)
   libgtest-dev libgmock-dev libbenchmark-dev
   libfastrtps-dev libfastcdr-dev fastddsgen fastdds-tools default-jre-headless
   iproute2 nftables  # deploy/netns/testbed.sh and its test (network namespaces, tc, loss)
   clang libclang-rt-14-dev  # fuzz/: clang 14 with libFuzzer and the ASan/UBSan runtimes
   openssl tcpdump  # deploy/security/make-fleet-certs.sh; the security capture test
   cyclonedds-dev cyclonedds-tools  # tests/ros2: Cyclone DDS, the independent ROS 2 DDS peer
+  chromium  # tests/view: the browser test (playwright-core from npm drives it; needs node/npm)
 )
 missing=()
 for p in "${packages[@]}"; do

@@ -21,8 +21,8 @@ fi
 bin=$1
 out=${2:-}
 
-programs=(esfleet-leader esfleet-follower esfleet-fleet esfleet-sim esfleet-replay esfleet-bench
-          esfleet-eval esfleet-map-png)
+programs=(esfleet-leader esfleet-follower esfleet-fleet esfleet-view esfleet-sim esfleet-replay
+          esfleet-bench esfleet-eval esfleet-map-png)
 for p in "${programs[@]}"; do
   if [ ! -x "$bin/$p" ]; then
     echo "$0: $bin/$p: no such executable (build it first: cmake --build build --target $p)" >&2
@@ -63,6 +63,7 @@ program, what it is for and which codes it uses, then its `--help` as it prints 
 - [esfleet-leader](#esfleet-leader)
 - [esfleet-follower](#esfleet-follower)
 - [esfleet-fleet](#esfleet-fleet)
+- [esfleet-view](#esfleet-view)
 - [esfleet-sim](#esfleet-sim)
 - [esfleet-replay](#esfleet-replay)
 - [esfleet-bench](#esfleet-bench) (`slam`, `localise`, `occupancy`, `occupancy-truth`,
@@ -120,6 +121,20 @@ program missing from `--bin-dir`).
 
 TEXT
 help_block esfleet-fleet
+cat <<'TEXT'
+
+## esfleet-view
+
+The fleet in a web browser (`docs/view.md`): a read-only DDS participant that serves one page on
+`--port` with the shared map (streamed as tiles: the whole map on connect, then only what
+changes), every robot's pose, state and trail, a fleet table, the leader's presence, and the map
+as ROS `map.yaml` + `map.pgm` or PNG to download. It never writes to DDS; under `--secure` it
+uses an identity that may only read (`make-fleet-certs.sh ... view`). The server's limits
+(connections, header, message and queue sizes) are flags. Exit codes: 0 `--timeout` reached;
+2 bad usage, DDS refused, or the port cannot be bound; 130 stopped by SIGINT/SIGTERM.
+
+TEXT
+help_block esfleet-view
 cat <<'TEXT'
 
 ## esfleet-sim

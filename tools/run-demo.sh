@@ -13,7 +13,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 # Only the programs the demo runs (the test suite is built by tools/run-tests.sh).
-tools/build.sh esfleet-leader esfleet-eval esfleet-follower esfleet-fleet esfleet-sim
+tools/build.sh esfleet-leader esfleet-eval esfleet-follower esfleet-fleet esfleet-sim esfleet-view
 out=${1:-out/csail}
 log=data/mit-csail/mit-csail.clf.gz
 build/bin/esfleet-leader --offline --log "$log" --odometry on --out "$out"
@@ -44,8 +44,16 @@ fi
 
 echo
 echo "== a simulated fleet: leader, simulator, 4 followers (domain ${ESFLEET_DEMO_FLEET_DOMAIN:-76}, 90 s) =="
+# With a browser view on ESFLEET_DEMO_VIEW_PORT (default 8080; 0 = none): open the address.
+view_port=${ESFLEET_DEMO_VIEW_PORT:-8080}
+view=()
+if [ "$view_port" != 0 ]; then
+  view=(--view "$view_port")
+  echo "watch it live in a browser: http://localhost:$view_port/ (or http://$(hostname):$view_port/" \
+    "from another machine on this network; ESFLEET_DEMO_VIEW_PORT=0 turns the view off)"
+fi
 build/bin/esfleet-fleet --robots 4 --duration 90 --domain "${ESFLEET_DEMO_FLEET_DOMAIN:-76}" \
-  --out "$out/fleet"
+  --out "$out/fleet" "${view[@]}"
 
 robots=$(ls -d "$out"/fleet/robot-*/ 2>/dev/null | wc -l)
 cat <<RECAP
@@ -60,6 +68,6 @@ cat <<RECAP
 - $out/fleet/summary.json: the simulated fleet, per robot the time to localise, the error
   against the simulator's truth, CPU and memory
 - $out/fleet/robot-1/ .. robot-$robots/: each robot's copy of the map with its track (map.png)
-- $out/fleet/*.log: every program's log
+- $out/fleet/*.log: every program's log (view.log: esfleet-view, the browser view)
 RECAP
 

@@ -7,8 +7,10 @@
 #                            governance.p7s permissions.p7s (+ permissions.xml, readable)
 #
 # Usage: make-fleet-certs.sh [--days N] [--role ID=ROLE]... [--revoke ID]... OUT_DIR ID...
-# Roles follow from the id: leader -> leader, sim -> simulator, monitor -> read-all, anything
-# else -> follower (robot); --role ID=leader|sim|monitor|follower overrides that for one id. Ids: letters, digits, '-', '_', '.' (they become partition names).
+# Roles follow from the id: leader -> leader, sim -> simulator, monitor and view -> read-all
+# (esfleet-fleet's monitor, esfleet-view: they subscribe to every topic and may publish none),
+# anything else -> follower (robot); --role ID=leader|sim|monitor|view|follower overrides that
+# for one id. Ids: letters, digits, '-', '_', '.' (they become partition names).
 # Rerunning with an existing OUT_DIR reuses its CAs (adding a robot = rerun with its id; the other
 # robots' files stay valid). --revoke ID adds ID's certificate to the identity CA's CRL and
 # writes OUT_DIR/<every id>/crl.pem (docs/security.md: how revocation works and what it costs).
@@ -22,7 +24,7 @@ while [[ $# -gt 0 && $1 == --* ]]; do
     --days) days=$2; shift 2 ;;
     --revoke) revoke+=("$2"); shift 2 ;;
     --role) role[${2%%=*}]=${2#*=}; shift 2 ;;
-    --help | -h) sed -n '2,17p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    --help | -h) sed -n '2,16p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "make-fleet-certs.sh: unknown option $1" >&2; exit 2 ;;
   esac
 done
@@ -42,8 +44,8 @@ for id in "${ids[@]}" "${revoke[@]}"; do
 done
 
 for id in "${!role[@]}"; do
-  case ${role[$id]} in leader | sim | monitor | follower) ;;
-    *) echo "make-fleet-certs.sh: --role $id=${role[$id]}: leader, sim, monitor or follower" >&2
+  case ${role[$id]} in leader | sim | monitor | view | follower) ;;
+    *) echo "make-fleet-certs.sh: --role $id=${role[$id]}: leader, sim, monitor, view or follower" >&2
        exit 2 ;;
   esac
 done
@@ -121,7 +123,7 @@ criteria() {  # kind partition topic...
 role_of() {  # id
   local r=${role[$1]:-}
   if [[ -z $r ]]; then
-    case $1 in leader | sim | monitor) r=$1 ;; *) r=follower ;; esac
+    case $1 in leader | sim | monitor | view) r=$1 ;; *) r=follower ;; esac
   fi
   echo "$r"
 }
@@ -138,7 +140,7 @@ rules_for() {  # id
       local k
       for k in "${robots[@]}"; do criteria publish "$k" esfleet/robots/scan; done
       ;;
-    monitor)
+    monitor | view)  # read everything, publish nothing
       criteria subscribe '*' 'esfleet/*'
       ;;
     follower)

@@ -55,6 +55,19 @@ TEST(ChildArgs, SimulatorDrivesEveryRobot) {
                   "--seed", "7", "--domain", "9", "--profile", "p.xml", "--speed", "0.3"}));
 }
 
+TEST(ChildArgs, ViewServesOnItsPortWithItsOwnIdentity) {
+  FleetOptions o = options();
+  o.view_port = 8080;
+  o.view_args = "--bind 127.0.0.1";
+  EXPECT_EQ(view_argv(o, "BIN"), (Args{"BIN/esfleet-view", "--port", "8080", "--domain", "9",
+                                       "--profile", "p.xml", "--bind", "127.0.0.1"}));
+  o.secure = "certs";
+  const Args v = view_argv(o, "BIN");
+  const auto it = std::find(v.begin(), v.end(), "--secure");
+  ASSERT_NE(it, v.end());
+  EXPECT_EQ(*(it + 1), "certs/view");
+}
+
 TEST(ChildArgs, SecureGivesEachProgramItsOwnIdentity) {
   FleetOptions o = options();
   EXPECT_EQ(dds_args(o, "leader"), (Args{"--domain", "9", "--profile", "p.xml"}));

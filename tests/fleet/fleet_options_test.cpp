@@ -120,6 +120,30 @@ TEST_F(FleetOptionsFiles, SecureNeedsADirectoryPerIdentity) {
   EXPECT_EQ(usage_error(o_), "");
 }
 
+TEST_F(FleetOptionsFiles, ViewNeedsItsProgramAndItsIdentity) {
+  o_.view_port = 8080;
+  EXPECT_EQ(usage_error(o_), "--bin-dir " + o_.bin_dir + ": no executable esfleet-view");
+  o_.view_port = -1;  // no view: esfleet-view not needed
+  EXPECT_EQ(usage_error(o_), "");
+  o_.view_port = 70000;
+  EXPECT_NE(usage_error(o_).find("--view"), std::string::npos);
+  o_.view_port = 0;
+  const std::vector<std::string> ids = o_.identities();
+  EXPECT_NE(std::find(ids.begin(), ids.end(), "view"), ids.end());
+}
+
+TEST(FleetFlags, ViewTakesAPort) {
+  FleetOptions o;
+  ASSERT_EQ(parse(o, {"--view", "8081", "--view-args", "--bind 127.0.0.1"}), std::nullopt);
+  EXPECT_EQ(o.view_port, 8081);
+  EXPECT_EQ(o.view_args, "--bind 127.0.0.1");
+  FleetOptions d;
+  ASSERT_EQ(parse(d, {}), std::nullopt);
+  EXPECT_EQ(d.view_port, -1);
+  FleetOptions bad;
+  EXPECT_EQ(parse(bad, {"--view", "65536"}), std::optional<int>(app::kExitUsage));
+}
+
 TEST_F(FleetOptionsFiles, ValuesOutOfRangeNameTheirFlag) {
   FleetOptions o = o_;
   o.robots = 0;
