@@ -76,6 +76,9 @@ void add_slam_params(ParamTable& t, SlamConfig* s, CarmenReaderOptions* r) {
   t.add_double("loop_search_radius", &s->loop.search_radius,
                "old scans this close to the estimate trigger an attempt, metres");
   t.add_double("loop_window_xy", &s->loop.window_xy, "loop search window +-, metres");
+  t.add_double("loop_window_max_xy", &s->loop.window_max_xy,
+               "the loop search window grows with the plausible drift (loop_min_travel's scan "
+               "distance) up to this, metres (at most loop_window_xy: fixed)");
   t.add_double("loop_window_theta", &s->loop.window_theta_deg, "loop search window +-, degrees");
   t.add_double("loop_min_agreement", &s->loop.min_agreement,
                "share of end points on occupied cells a loop match needs");

@@ -25,6 +25,9 @@ void LoopClosureConfig::validate() const {
   positive(search_radius, "search_radius");
   positive(submap_radius, "submap_radius");
   positive(window_xy, "window_xy");
+  if (!(window_max_xy >= 0.0) || !std::isfinite(window_max_xy)) {
+    throw std::invalid_argument("loop.window_max_xy must be >= 0");
+  }
   positive(window_theta_deg, "window_theta_deg");
   positive(sigma_xy, "sigma_xy");
   positive(sigma_theta_deg, "sigma_theta_deg");
@@ -87,31 +90,39 @@ std::optional<LoopMatch> find_loop_closure(const std::vector<KeyScan>& keys,
   const double step_theta = std::atan2(coarse_cell, 10.0);
   const int nxy = static_cast<int>(std::ceil(config.window_xy / step_xy));
   const int nth = static_cast<int>(std::ceil(deg_to_rad(config.window_theta_deg) / step_theta));
-  struct Candidate {
-    float score;
-    Pose2 pose;
+  // Scores only (4 bytes per candidate; a +-4 m window has 177 k of them), in the loop order;
+  // a candidate's pose follows from its index.
+  const int side = 2 * nxy + 1;
+  const auto pose_of = [&](std::size_t i) {
+    const auto n = static_cast<int>(i);
+    const int it = n / (side * side) - nth, iy = (n / side) % side - nxy, ix = n % side - nxy;
+    return Pose2{estimate.x + ix * step_xy, estimate.y + iy * step_xy,
+                 normalize_angle(estimate.theta + it * step_theta)};
   };
-  std::vector<Candidate> scored;
-  scored.reserve(static_cast<std::size_t>((2 * nxy + 1) * (2 * nxy + 1) * (2 * nth + 1)));
+  std::vector<float> scored;
+  scored.reserve(static_cast<std::size_t>(side * side * (2 * nth + 1)));
   for (int it = -nth; it <= nth; ++it) {
     const double th = normalize_angle(estimate.theta + it * step_theta);
     coarse.set_heading(th);
     for (int iy = -nxy; iy <= nxy; ++iy) {
       for (int ix = -nxy; ix <= nxy; ++ix) {
-        const Pose2 p{estimate.x + ix * step_xy, estimate.y + iy * step_xy, th};
-        scored.push_back({coarse.evaluate(p.x, p.y).fitness, p});
+        scored.push_back(
+            coarse.evaluate(estimate.x + ix * step_xy, estimate.y + iy * step_xy).fitness);
       }
     }
   }
-  const auto best_it =
-      std::max_element(scored.begin(), scored.end(),
-                       [](const Candidate& a, const Candidate& b) { return a.score < b.score; });
-  if (best_it == scored.end() || !(best_it->score > 0.0f)) return std::nullopt;
-  const Candidate best = *best_it;
+  const auto best_it = std::max_element(scored.begin(), scored.end());
+  if (best_it == scored.end() || !(*best_it > 0.0f)) return std::nullopt;
+  struct Candidate {
+    float score;
+    Pose2 pose;
+  };
+  const Candidate best{*best_it, pose_of(static_cast<std::size_t>(best_it - scored.begin()))};
   float rival = 0.0f;
-  for (const Candidate& c : scored) {
-    if (std::hypot(c.pose.x - best.pose.x, c.pose.y - best.pose.y) > config.rival_distance) {
-      rival = std::max(rival, c.score);
+  for (std::size_t i = 0; i < scored.size(); ++i) {
+    const Pose2 c = pose_of(i);
+    if (std::hypot(c.x - best.pose.x, c.y - best.pose.y) > config.rival_distance) {
+      rival = std::max(rival, scored[i]);
     }
   }
   LoopMatch match;

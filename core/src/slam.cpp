@@ -224,6 +224,12 @@ void Slam::start_loop_search(std::size_t k) {
     for (const auto& [d, i] : near) ids.push_back(i);
     std::sort(ids.begin(), ids.end());
   }
+  LoopClosureConfig search_config = lc;
+  if (lc.window_max_xy > lc.window_xy && !near.empty()) {
+    const double travel = path_length - keys_[near.front().second].path_length;
+    search_config.window_xy =
+        std::clamp(lc.drift_floor_xy + lc.drift_rate_xy * travel, lc.window_xy, lc.window_max_xy);
+  }
   std::vector<KeyScan> old_keys;
   std::vector<Pose2> old_poses;
   old_keys.reserve(ids.size());
@@ -233,7 +239,7 @@ void Slam::start_loop_search(std::size_t k) {
   }
   auto search = [ids = std::move(ids), old_keys = std::move(old_keys),
                  old_poses = std::move(old_poses), points = *keys_[k].points, estimate, path_length,
-                 lc, map = config_.map, update = config_.update,
+                 lc = search_config, map = config_.map, update = config_.update,
                  fitness = slam_fitness_options(
                      config_.tracking, config_.tracking.interpolation !=
                                            Interpolation::kNone)]() -> std::optional<LoopMatch> {
