@@ -46,6 +46,11 @@ void LoopClosureConfig::validate() const {
   }
 }
 
+double loop_search_window_xy(const LoopClosureConfig& c, double travel) {
+  if (!(c.window_max_xy > c.window_xy)) return c.window_xy;
+  return std::clamp(c.drift_floor_xy + c.drift_rate_xy * travel, c.window_xy, c.window_max_xy);
+}
+
 std::optional<LoopMatch> find_loop_closure(const std::vector<KeyScan>& keys,
                                            const std::vector<Pose2>& poses,
                                            const ScanPoints& points, const Pose2& estimate,

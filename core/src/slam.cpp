@@ -225,10 +225,9 @@ void Slam::start_loop_search(std::size_t k) {
     std::sort(ids.begin(), ids.end());
   }
   LoopClosureConfig search_config = lc;
-  if (lc.window_max_xy > lc.window_xy && !near.empty()) {
-    const double travel = path_length - keys_[near.front().second].path_length;
+  if (!near.empty()) {
     search_config.window_xy =
-        std::clamp(lc.drift_floor_xy + lc.drift_rate_xy * travel, lc.window_xy, lc.window_max_xy);
+        loop_search_window_xy(lc, path_length - keys_[near.front().second].path_length);
   }
   std::vector<KeyScan> old_keys;
   std::vector<Pose2> old_poses;

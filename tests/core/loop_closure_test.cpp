@@ -38,6 +38,39 @@ Scene old_keys() {
   return s;
 }
 
+TEST(LoopClosure, WindowGrowsWithThePlausibleDriftUpToItsCap) {
+  LoopClosureConfig c;  // +-2 m, drift 0.3 m + 2 %, cap 4 m
+  EXPECT_DOUBLE_EQ(loop_search_window_xy(c, 10.0), 2.0);
+  EXPECT_NEAR(loop_search_window_xy(c, 100.0), 2.3, 1e-12);
+  EXPECT_DOUBLE_EQ(loop_search_window_xy(c, 1000.0), 4.0);
+  c.window_max_xy = 0.0;  // fixed
+  EXPECT_DOUBLE_EQ(loop_search_window_xy(c, 1000.0), 2.0);
+}
+
+TEST(LoopClosure, AGrownWindowFindsARevisitTooFarOffForTheFixedOne) {
+  // 2.6 m off after 200 m of travel: plausible (0.3 m + 2 % of 198 m), beyond +-2 m.
+  const Scene scene = old_keys();
+  const Pose2 truth{6.1, 4.3, 0.25};
+  const ScanPoints current = prepare_scan(make_scan(asymmetric_room(), truth));
+  const Pose2 drifted{truth.x + 2.6, truth.y, truth.theta};
+  LoopClosureConfig config;
+  const double travel = 200.0;
+  auto search = [&](double window) {
+    LoopClosureConfig c = config;
+    c.window_xy = window;
+    return find_loop_closure(scene.keys, scene.poses, current, drifted, travel, c, GridMapConfig{},
+                             MapUpdateConfig{}, FitnessOptions{});
+  };
+  EXPECT_FALSE(search(config.window_xy).has_value());
+  const double grown = loop_search_window_xy(config, travel - scene.keys.front().path_length);
+  ASSERT_GT(grown, 2.6);
+  const auto match = search(grown);
+  ASSERT_TRUE(match.has_value());
+  EXPECT_NEAR(match->pose.x, truth.x, 0.05);
+  EXPECT_NEAR(match->pose.y, truth.y, 0.05);
+  EXPECT_NEAR(normalize_angle(match->pose.theta - truth.theta), 0.0, deg_to_rad(1.0));
+}
+
 TEST(LoopClosure, RecoversTheTruePoseFromADriftedEstimate) {
   const Scene scene = old_keys();
   const Pose2 truth{6.1, 4.3, 0.25};

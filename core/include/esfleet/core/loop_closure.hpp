@@ -104,6 +104,10 @@ struct LoopMatch {
   std::size_t submap_scans = 0;
 };
 
+/// The translation window (+-, metres) of a search whose nearest old scan is `travel` metres
+/// back along the path: window_xy grown to the plausible drift, at most window_max_xy.
+double loop_search_window_xy(const LoopClosureConfig& config, double travel);
+
 /// Looks for a loop closure of the scan `points` whose current estimate is `estimate` and
 /// whose path length is `path_length`, against `keys` with their current poses `poses`
 /// (indices shared). Returns nothing when there are no old scans near or no acceptable match.
