@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstring>
 #include <nlohmann/json.hpp>
+#include <string>
 
 #include "esfleet/dds/ros_msg.hpp"
 
@@ -13,69 +14,54 @@ namespace esfleet::view {
 
 namespace {
 
-// nav_msgs/msg/OccupancyGrid with its dependencies, in the concatenated form ros2msg schemas use
-// (what `ros2 interface show` prints, each dependency after a line of '=' and "MSG: ").
-constexpr const char* kOccupancyGridSchema =
+// The schemas in the concatenated form ros2msg schemas use (what `ros2 interface show` prints,
+// each dependency after a line of '=' and "MSG: "), built from the dependencies they share.
+const std::string kSeparator = std::string(80, '=') + "\n";
+/// std_msgs/Header and what it needs.
+const std::string kHeaderDependencies = kSeparator +
+                                        "MSG: std_msgs/Header\n"
+                                        "builtin_interfaces/Time stamp\n"
+                                        "string frame_id\n" +
+                                        kSeparator +
+                                        "MSG: builtin_interfaces/Time\n"
+                                        "int32 sec\n"
+                                        "uint32 nanosec\n";
+/// geometry_msgs/Pose and what it needs.
+const std::string kPoseDependencies = kSeparator +
+                                      "MSG: geometry_msgs/Pose\n"
+                                      "Point position\n"
+                                      "Quaternion orientation\n" +
+                                      kSeparator +
+                                      "MSG: geometry_msgs/Point\n"
+                                      "float64 x\n"
+                                      "float64 y\n"
+                                      "float64 z\n" +
+                                      kSeparator +
+                                      "MSG: geometry_msgs/Quaternion\n"
+                                      "float64 x 0\n"
+                                      "float64 y 0\n"
+                                      "float64 z 0\n"
+                                      "float64 w 1\n";
+
+/// nav_msgs/msg/OccupancyGrid.
+const std::string kOccupancyGridSchema =
     "std_msgs/Header header\n"
     "MapMetaData info\n"
-    "int8[] data\n"
-    "================================================================================\n"
-    "MSG: std_msgs/Header\n"
-    "builtin_interfaces/Time stamp\n"
-    "string frame_id\n"
-    "================================================================================\n"
-    "MSG: builtin_interfaces/Time\n"
-    "int32 sec\n"
-    "uint32 nanosec\n"
-    "================================================================================\n"
+    "int8[] data\n" +
+    kHeaderDependencies + kSeparator +
     "MSG: nav_msgs/MapMetaData\n"
     "builtin_interfaces/Time map_load_time\n"
     "float32 resolution\n"
     "uint32 width\n"
     "uint32 height\n"
-    "geometry_msgs/Pose origin\n"
-    "================================================================================\n"
-    "MSG: geometry_msgs/Pose\n"
-    "Point position\n"
-    "Quaternion orientation\n"
-    "================================================================================\n"
-    "MSG: geometry_msgs/Point\n"
-    "float64 x\n"
-    "float64 y\n"
-    "float64 z\n"
-    "================================================================================\n"
-    "MSG: geometry_msgs/Quaternion\n"
-    "float64 x 0\n"
-    "float64 y 0\n"
-    "float64 z 0\n"
-    "float64 w 1\n";
+    "geometry_msgs/Pose origin\n" +
+    kPoseDependencies;
 
-constexpr const char* kPoseArraySchema =
+/// geometry_msgs/msg/PoseArray.
+const std::string kPoseArraySchema =
     "std_msgs/Header header\n"
-    "geometry_msgs/Pose[] poses\n"
-    "================================================================================\n"
-    "MSG: std_msgs/Header\n"
-    "builtin_interfaces/Time stamp\n"
-    "string frame_id\n"
-    "================================================================================\n"
-    "MSG: builtin_interfaces/Time\n"
-    "int32 sec\n"
-    "uint32 nanosec\n"
-    "================================================================================\n"
-    "MSG: geometry_msgs/Pose\n"
-    "Point position\n"
-    "Quaternion orientation\n"
-    "================================================================================\n"
-    "MSG: geometry_msgs/Point\n"
-    "float64 x\n"
-    "float64 y\n"
-    "float64 z\n"
-    "================================================================================\n"
-    "MSG: geometry_msgs/Quaternion\n"
-    "float64 x 0\n"
-    "float64 y 0\n"
-    "float64 z 0\n"
-    "float64 w 1\n";
+    "geometry_msgs/Pose[] poses\n" +
+    kHeaderDependencies + kPoseDependencies;
 
 /// Little-endian CDR by hand for PoseArray (plain fields, alignment from the encapsulation's
 /// end).

@@ -56,6 +56,17 @@ constexpr std::size_t kScaleSteps = 5;
 double ms_since(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
 }
+/// The graph edge a loop-closure match of key scan `k` stands for (loop edge weights, Huber).
+PoseGraphEdge loop_edge(const LoopClosureConfig& lc, const LoopMatch& match, std::size_t k) {
+  PoseGraphEdge e;
+  e.from = match.anchor;
+  e.to = k;
+  e.measurement = match.relative;
+  e.info_xy = 1.0 / (lc.sigma_xy * lc.sigma_xy);
+  e.info_theta = 1.0 / std::pow(deg_to_rad(lc.sigma_theta_deg), 2);
+  e.huber = lc.huber;
+  return e;
+}
 }  // namespace
 
 SlamStep Slam::process(const LaserScan& scan) {
@@ -216,6 +227,7 @@ void Slam::start_loop_search(std::size_t k) {
     if (d <= lc.submap_radius) near.emplace_back(d, i);
   }
   std::vector<std::size_t> ids;
+  LoopClosureConfig search_config = lc;
   if (trigger && near.size() >= 3) {
     std::sort(near.begin(), near.end());
     if (near.size() > static_cast<std::size_t>(lc.max_submap_scans)) {
@@ -223,9 +235,7 @@ void Slam::start_loop_search(std::size_t k) {
     }
     for (const auto& [d, i] : near) ids.push_back(i);
     std::sort(ids.begin(), ids.end());
-  }
-  LoopClosureConfig search_config = lc;
-  if (!near.empty()) {
+    // The window grows with the drift plausible since the nearest old scan.
     search_config.window_xy =
         loop_search_window_xy(lc, path_length - keys_[near.front().second].path_length);
   }
@@ -258,13 +268,7 @@ bool Slam::finish_loop_search() {
   const std::optional<LoopMatch> match = pending.match.get();
   if (!match) return false;
   const std::size_t k = pending.key;
-  PoseGraphEdge e;
-  e.from = match->anchor;
-  e.to = k;
-  e.measurement = match->relative;
-  e.info_xy = 1.0 / (config_.loop.sigma_xy * config_.loop.sigma_xy);
-  e.info_theta = 1.0 / std::pow(deg_to_rad(config_.loop.sigma_theta_deg), 2);
-  e.huber = config_.loop.huber;
+  const PoseGraphEdge e = loop_edge(config_.loop, *match, k);
   std::vector<Pose2> before = graph_.nodes();
   const double cost_before = graph_.cost();
   graph_.add_edge(e);
@@ -331,14 +335,7 @@ SlamFinish Slam::finish(unsigned threads) {
       for (std::size_t k = 0; k < n; ++k) {
         if (!matches[k]) continue;
         ++matched;
-        PoseGraphEdge e;
-        e.from = matches[k]->anchor;
-        e.to = k;
-        e.measurement = matches[k]->relative;
-        e.info_xy = 1.0 / (lc.sigma_xy * lc.sigma_xy);
-        e.info_theta = 1.0 / std::pow(deg_to_rad(lc.sigma_theta_deg), 2);
-        e.huber = lc.huber;
-        g.add_edge(e);
+        g.add_edge(loop_edge(lc, *matches[k], k));
       }
       out.tried = (n + every - 1) / every;
       out.matched = matched;
