@@ -260,4 +260,14 @@ FitnessValue HeadingScorer::evaluate(double x, double y) const {
   return out;
 }
 
+void HeadingScorer::columns(double x, std::int32_t* out) const {
+  const auto fx = static_cast<float>(x * inv_cell_);
+  for (std::size_t j = 0; j < px_.size(); ++j) out[j] = fast_floor(fx + cpx_[j] - spy_[j]) - x0_;
+}
+
+void HeadingScorer::rows(double y, std::int32_t* out) const {
+  const auto fy = static_cast<float>(y * inv_cell_);
+  for (std::size_t j = 0; j < px_.size(); ++j) out[j] = fast_floor(fy + spx_[j] + cpy_[j]) - y0_;
+}
+
 }  // namespace esfleet

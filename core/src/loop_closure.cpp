@@ -6,6 +6,7 @@
 #include <string>
 
 #include "esfleet/core/es_search.hpp"
+#include "esfleet/core/window_search.hpp"
 
 namespace esfleet {
 
@@ -82,56 +83,26 @@ std::optional<LoopMatch> find_loop_closure(const std::vector<KeyScan>& keys,
   }
   submap.commit_update();
 
-  // Brute force over the window on the coarse level: translation steps of half a coarse cell,
-  // rotation steps that move a 10 m beam end by about one coarse cell.
+  // The window on the coarse level: translation steps of half a coarse cell, rotation steps
+  // that move a 10 m beam end by about one coarse cell; the best candidate and its rival found
+  // by branch and bound (the brute-force result, bit for bit).
   FitnessOptions coarse_options = fitness;
   coarse_options.level = kCoarseLevel;
   coarse_options.stride = 2;
   coarse_options.interpolate = false;
-  // Positions share a heading: HeadingScorer gives FitnessEvaluator's values bit for bit.
-  HeadingScorer coarse(submap, points, coarse_options);
   const double coarse_cell = map_config.cell_size * (1 << kCoarseLevel);
-  const double step_xy = coarse_cell / 2.0;
-  const double step_theta = std::atan2(coarse_cell, 10.0);
-  const int nxy = static_cast<int>(std::ceil(config.window_xy / step_xy));
-  const int nth = static_cast<int>(std::ceil(deg_to_rad(config.window_theta_deg) / step_theta));
-  // Scores only (4 bytes per candidate; a +-4 m window has 177 k of them), in the loop order;
-  // a candidate's pose follows from its index.
-  const int side = 2 * nxy + 1;
-  const auto pose_of = [&](std::size_t i) {
-    const auto n = static_cast<int>(i);
-    const int it = n / (side * side) - nth, iy = (n / side) % side - nxy, ix = n % side - nxy;
-    return Pose2{estimate.x + ix * step_xy, estimate.y + iy * step_xy,
-                 normalize_angle(estimate.theta + it * step_theta)};
-  };
-  std::vector<float> scored;
-  scored.reserve(static_cast<std::size_t>(side * side * (2 * nth + 1)));
-  for (int it = -nth; it <= nth; ++it) {
-    const double th = normalize_angle(estimate.theta + it * step_theta);
-    coarse.set_heading(th);
-    for (int iy = -nxy; iy <= nxy; ++iy) {
-      for (int ix = -nxy; ix <= nxy; ++ix) {
-        scored.push_back(
-            coarse.evaluate(estimate.x + ix * step_xy, estimate.y + iy * step_xy).fitness);
-      }
-    }
-  }
-  const auto best_it = std::max_element(scored.begin(), scored.end());
-  if (best_it == scored.end() || !(*best_it > 0.0f)) return std::nullopt;
-  struct Candidate {
-    float score;
-    Pose2 pose;
-  };
-  const Candidate best{*best_it, pose_of(static_cast<std::size_t>(best_it - scored.begin()))};
-  float rival = 0.0f;
-  for (std::size_t i = 0; i < scored.size(); ++i) {
-    const Pose2 c = pose_of(i);
-    if (std::hypot(c.x - best.pose.x, c.y - best.pose.y) > config.rival_distance) {
-      rival = std::max(rival, scored[i]);
-    }
-  }
+  SearchWindow window;
+  window.centre = estimate;
+  window.step_xy = coarse_cell / 2.0;
+  window.step_theta = std::atan2(coarse_cell, 10.0);
+  window.n_xy = static_cast<int>(std::ceil(config.window_xy / window.step_xy));
+  window.n_theta =
+      static_cast<int>(std::ceil(deg_to_rad(config.window_theta_deg) / window.step_theta));
+  const std::optional<WindowMatch> best =
+      search_window(submap, points, coarse_options, window, config.rival_distance);
+  if (!best) return std::nullopt;
   LoopMatch match;
-  match.ambiguity = static_cast<double>(rival) / static_cast<double>(best.score);
+  match.ambiguity = static_cast<double>(best->rival) / static_cast<double>(best->score);
   match.submap_scans = near.size();
   if (match.ambiguity > config.max_ambiguity) return std::nullopt;
 
@@ -139,7 +110,7 @@ std::optional<LoopMatch> find_loop_closure(const std::vector<KeyScan>& keys,
   fine_options.level = 0;
   fine_options.stride = 1;
   const FitnessEvaluator fine(submap, points, fine_options);
-  const EsResult polished = refine_pose(fine, best.pose, step_xy, step_theta, 0.001);
+  const EsResult polished = refine_pose(fine, best->pose, window.step_xy, window.step_theta, 0.001);
   match.pose = polished.pose;
   match.value = polished.value;
   const double known = match.value.n_points > 0 ? static_cast<double>(match.value.n_known) /

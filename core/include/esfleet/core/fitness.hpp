@@ -84,6 +84,17 @@ class HeadingScorer {
   /// FitnessEvaluator::evaluate({x, y, theta}) for the theta of set_heading().
   FitnessValue evaluate(double x, double y) const;
 
+  /// For the heading of set_heading(): the column in cells() of every end point for a
+  /// candidate at x, and the row for a candidate at y, as evaluate() computes them (not
+  /// clamped: outside [0, width()) or [0, height()) the end point reads an unknown cell).
+  void columns(double x, std::int32_t* out) const;
+  void rows(double y, std::int32_t* out) const;
+  /// The level's scores the scorer reads, row-major, width() x height().
+  const float* cells() const { return cells_.data(); }
+  std::int32_t width() const { return width_; }
+  std::int32_t height() const { return height_; }
+  std::size_t size() const { return px_.size(); }
+
  private:
   FitnessOptions options_;
   double inv_cell_;

@@ -1,0 +1,129 @@
+// The branch-and-bound window search against scoring every candidate: the same best candidate
+// (lowest index of the highest score) and the same rival score, bit for bit, on maps made from
+// a synthetic world, for seeded random scans, windows, headings and both fitness conditions.
+
+#include "esfleet/core/window_search.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+#include <vector>
+
+#include "esfleet/core/random.hpp"
+#include "synthetic_world.hpp"
+
+namespace esfleet {
+namespace {
+
+using testing::asymmetric_room;
+using testing::make_scan;
+using testing::map_of;
+
+/// The reference: every candidate scored, the first of the highest score, the rival over all.
+std::optional<WindowMatch> search_window_brute_force(const GridMap& map, const ScanPoints& points,
+                                                     const FitnessOptions& options,
+                                                     const SearchWindow& w, double rival_distance) {
+  HeadingScorer scorer(map, points, options);
+  std::vector<float> scored;
+  std::vector<Pose2> poses;
+  for (int it = -w.n_theta; it <= w.n_theta; ++it) {
+    const double theta = normalize_angle(w.centre.theta + it * w.step_theta);
+    scorer.set_heading(theta);
+    for (int iy = -w.n_xy; iy <= w.n_xy; ++iy) {
+      for (int ix = -w.n_xy; ix <= w.n_xy; ++ix) {
+        const Pose2 p{w.centre.x + ix * w.step_xy, w.centre.y + iy * w.step_xy, theta};
+        scored.push_back(scorer.evaluate(p.x, p.y).fitness);
+        poses.push_back(p);
+      }
+    }
+  }
+  const auto best_it = std::max_element(scored.begin(), scored.end());
+  if (best_it == scored.end() || !(*best_it > 0.0f)) return std::nullopt;
+  WindowMatch m;
+  m.score = *best_it;
+  m.index = static_cast<std::size_t>(best_it - scored.begin());
+  m.pose = poses[m.index];
+  for (std::size_t i = 0; i < scored.size(); ++i) {
+    const Pose2& c = poses[i];
+    if (std::hypot(c.x - m.pose.x, c.y - m.pose.y) > rival_distance) {
+      m.rival = std::max(m.rival, scored[i]);
+    }
+  }
+  m.scored = scored.size();
+  return m;
+}
+
+void expect_same(const std::optional<WindowMatch>& bb, const std::optional<WindowMatch>& brute,
+                 std::uint64_t seed) {
+  ASSERT_EQ(bb.has_value(), brute.has_value()) << "seed " << seed;
+  if (!bb) return;
+  EXPECT_EQ(bb->index, brute->index) << "seed " << seed;
+  EXPECT_EQ(bb->score, brute->score) << "seed " << seed;
+  EXPECT_EQ(bb->rival, brute->rival) << "seed " << seed;
+  EXPECT_EQ(bb->pose.x, brute->pose.x) << "seed " << seed;
+  EXPECT_EQ(bb->pose.theta, brute->pose.theta) << "seed " << seed;
+}
+
+TEST(WindowSearch, BranchAndBoundEqualsBruteForce) {
+  const auto world = asymmetric_room();
+  const GridMap map = map_of(world, 12.0, 8.0);
+  std::size_t scored = 0, total = 0;
+  for (std::uint64_t seed = 1; seed <= 24; ++seed) {
+    Rng rng(seed);
+    const Pose2 truth{1.0 + 10.0 * rng.uniform(), 1.0 + 6.0 * rng.uniform(),
+                      (2.0 * rng.uniform() - 1.0) * std::numbers::pi};
+    const ScanPoints points = prepare_scan(make_scan(world, truth));
+    SearchWindow w;
+    w.centre = {truth.x + rng.uniform() - 0.5, truth.y + rng.uniform() - 0.5,
+                truth.theta + 0.2 * (rng.uniform() - 0.5)};
+    w.step_xy = 0.1;
+    w.step_theta = std::atan2(0.2, 10.0);
+    w.n_xy = 5 + static_cast<int>(rng.uniform() * 30);
+    w.n_theta = 2 + static_cast<int>(rng.uniform() * 10);
+    FitnessOptions o;
+    o.level = 2;
+    o.stride = 2;
+    o.use_penalty = seed % 2 == 0;
+    const double rival_distance = seed % 3 == 0 ? 0.3 : 1.0;
+    const auto bb = search_window(map, points, o, w, rival_distance);
+    const auto brute = search_window_brute_force(map, points, o, w, rival_distance);
+    expect_same(bb, brute, seed);
+    ASSERT_TRUE(bb.has_value()) << "seed " << seed;
+    scored += bb->scored;
+    total += brute->scored;
+  }
+  // It prunes: most candidates are never scored.
+  EXPECT_LT(scored * 4, total);
+}
+
+TEST(WindowSearch, TiesGoToTheLowestIndexAndNothingScoresOffTheMap) {
+  // A map of one wall seen from far: many poses put the same few points on it.
+  GridMapConfig c;
+  c.pyramid_levels = 2;
+  GridMap map(c);
+  const std::vector<testing::Segment> wall{{0, 0, 0, 20}};
+  for (int i = 0; i < 10; ++i) {
+    const Pose2 p{5.0, 2.0 + i, std::numbers::pi};
+    update_map(map, prepare_scan(make_scan(wall, p)), p, MapUpdateConfig{});
+  }
+  map.commit_update();
+  const Pose2 at{5.0, 10.0, std::numbers::pi};
+  const ScanPoints points = prepare_scan(make_scan(wall, at));
+  FitnessOptions o;
+  o.level = 2;
+  o.stride = 2;
+  SearchWindow w{at, 0.1, std::atan2(0.2, 10.0), 20, 4};
+  for (const bool penalty : {true, false}) {
+    o.use_penalty = penalty;
+    expect_same(search_window(map, points, o, w, 1.0),
+                search_window_brute_force(map, points, o, w, 1.0), penalty);
+  }
+  // Far from every known cell: no candidate scores.
+  w.centre = {500.0, 500.0, 0.0};
+  EXPECT_FALSE(search_window(map, points, o, w, 1.0).has_value());
+  EXPECT_FALSE(search_window_brute_force(map, points, o, w, 1.0).has_value());
+}
+
+}  // namespace
+}  // namespace esfleet
