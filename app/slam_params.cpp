@@ -68,7 +68,11 @@ void add_slam_params(ParamTable& t, SlamConfig* s, CarmenReaderOptions* r) {
   t.add_int("loop_every", &s->loop.every, "attempt a loop closure every N inserted scans");
   t.add_int("loop_defer", &s->loop.defer_keys,
             "search a loop closure on a worker thread and apply it N inserted scans later "
-            "(deterministic; 0 = search and apply at once on the mapping thread)");
+            "(deterministic; 0 = apply at the scan that started it, see loop_speculate)");
+  t.add_switch("loop_speculate", &s->loop.speculate,
+               "loop_defer 0: search on a worker thread while the next scans are processed; "
+               "an accepted closure undoes and re-processes them (the same result as off, "
+               "where the mapping thread searches)");
   t.add_int("loop_cooldown", &s->loop.cooldown,
             "no loop-closure attempt for N inserted scans after an accepted one");
   t.add_double("loop_min_travel", &s->loop.min_travel,

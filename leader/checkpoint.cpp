@@ -88,8 +88,8 @@ struct Checkpointer::Job {
   std::string why;  ///< for the log line; empty = periodic
 };
 
-std::unique_ptr<Checkpointer::Job> Checkpointer::prepare(const Slam& slam,
-                                                         const CheckpointInfo& info) {
+std::unique_ptr<Checkpointer::Job> Checkpointer::prepare(Slam& slam, const CheckpointInfo& info) {
+  slam.settle();  // a speculative loop-closure search is applied first (state() needs it)
   auto job = std::make_unique<Job>();
   job->generation = generation_++;
   job->info = info;
@@ -167,7 +167,7 @@ std::uint64_t Checkpointer::write(Job& job) {
   return map_bytes.size() + slam_bytes;
 }
 
-std::uint64_t Checkpointer::save(const Slam& slam, const CheckpointInfo& info) {
+std::uint64_t Checkpointer::save(Slam& slam, const CheckpointInfo& info) {
   const std::unique_ptr<Job> job = prepare(slam, info);
   return write(*job);
 }
@@ -294,16 +294,16 @@ CheckpointSchedule::~CheckpointSchedule() {
   if (writer_.joinable()) writer_.join();
 }
 
-void CheckpointSchedule::after_scan(const Slam& slam) {
+void CheckpointSchedule::after_scan(Slam& slam) {
   if (every_ > 0 && slam.scans_processed() % every_ == 0) start(slam, nullptr);
 }
 
-void CheckpointSchedule::save(const Slam& slam, const char* why) {
+void CheckpointSchedule::save(Slam& slam, const char* why) {
   start(slam, why);
   wait_idle();
 }
 
-void CheckpointSchedule::start(const Slam& slam, const char* why) {
+void CheckpointSchedule::start(Slam& slam, const char* why) {
   const auto t0 = std::chrono::steady_clock::now();
   wait_idle();
   info_.scans = slam.scans_processed();

@@ -60,14 +60,14 @@ class Checkpointer {
   /// Writes generation g+1 of the checkpoint (snapshot files, journal, manifest last) and
   /// deletes older generations; returns the bytes written. Throws std::runtime_error.
   /// The same as write(prepare(slam, info)).
-  std::uint64_t save(const Slam& slam, const CheckpointInfo& info);
+  std::uint64_t save(Slam& slam, const CheckpointInfo& info);
 
   /// What one checkpoint needs, copied from the SLAM (the counters of the tiles changed since
   /// the previous prepare only), so that write() can run on another thread.
   struct Job;
   /// On the thread that owns `slam`: copies the state and the changed tiles and brings the
   /// journal up to the snapshot (journal.json is written before the manifest that needs it).
-  std::unique_ptr<Job> prepare(const Slam& slam, const CheckpointInfo& info);
+  std::unique_ptr<Job> prepare(Slam& slam, const CheckpointInfo& info);
   /// Encodes the changed tiles (the others come from earlier writes), writes the snapshot
   /// files and the manifest (each atomically, the manifest last) and deletes older
   /// generations; returns the bytes written. One call at a time, jobs in prepare() order.
@@ -140,10 +140,10 @@ class CheckpointSchedule {
   /// snapshot is copied here (the changed tiles, the SLAM state) and written by a writer thread
   /// while mapping goes on; a checkpoint still being written when the next one is due is
   /// waited for.
-  void after_scan(const Slam& slam);
+  void after_scan(Slam& slam);
   /// Checkpoints now and waits until it is written; `why` (e.g. "end of input") goes into the
   /// log line.
-  void save(const Slam& slam, const char* why);
+  void save(Slam& slam, const char* why);
   /// Before a publish of `map`: keeps the journal ahead of it.
   void reserve(const GridMap& map);
 
@@ -153,7 +153,7 @@ class CheckpointSchedule {
 
  private:
   /// Hands a checkpoint to the writer thread (after the previous one is written).
-  void start(const Slam& slam, const char* why);
+  void start(Slam& slam, const char* why);
   /// Waits until the writer thread is idle.
   void wait_idle();
   void writer_loop();

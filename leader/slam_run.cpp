@@ -53,6 +53,9 @@ SlamRunStats run_slam(Slam& slam, app::ScanSource& source, std::size_t max_scans
     if (on_step) on_step(*scan, step, stats.scans);
     last = Clock::now();
   }
+  // A loop-closure search still speculative is applied: what follows (outputs, checkpoint,
+  // the final pass) sees the state the mapping thread would have reached on its own.
+  slam.settle();
   if (first) stats.wall_s = std::chrono::duration<double>(last - *first).count();
   return stats;
 }

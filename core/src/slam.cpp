@@ -51,6 +51,8 @@ Slam::Slam(SlamConfig config)
 
 namespace {
 using Clock = std::chrono::steady_clock;
+/// At most this many loop-closure searches are speculative at a time.
+constexpr std::size_t kMaxSpeculations = 3;
 /// The recovery window scales with the largest of this many last inter-scan motions.
 constexpr std::size_t kScaleSteps = 5;
 double ms_since(Clock::time_point t0) {
@@ -70,6 +72,82 @@ PoseGraphEdge loop_edge(const LoopClosureConfig& lc, const LoopMatch& match, std
 }  // namespace
 
 SlamStep Slam::process(const LaserScan& scan) {
+  // Apply the speculative searches that are done (oldest first), and make room before a key
+  // scan that may start another one.
+  bool closed = false;
+  const auto ready = [this] {
+    return speculations_.front().search.match.wait_for(std::chrono::seconds(0)) ==
+           std::future_status::ready;
+  };
+  while (!speculations_.empty() && (speculations_.size() >= kMaxSpeculations || ready())) {
+    closed = settle_one() || closed;
+  }
+  SlamStep step = process_scan(scan);
+  // The scan goes to every speculation started before it.
+  for (Speculation& spec : speculations_) {
+    if (spec.trajectory_size < trajectory_.size()) spec.scans.push_back(scan);
+  }
+  step.loop_closed = step.loop_closed || closed;
+  return step;
+}
+
+bool Slam::settle() {
+  bool closed = false;
+  while (!speculations_.empty()) closed = settle_one() || closed;
+  return closed;
+}
+
+bool Slam::settle_one() {
+  Speculation spec = std::move(speculations_.front());
+  speculations_.pop_front();
+  const std::optional<LoopMatch> match = spec.search.match.get();
+  if (!match) return false;
+  // Judged on the graph as it was at the key scan, as on the mapping thread.
+  if (!accept_loop(*match, spec.search.key, spec.graph)) {
+    ++loop_rejected_;
+    return false;
+  }
+  // The later speculations started from the state this closure changes: dropped (their
+  // searches run again, if due, as the scans are processed again).
+  for (Speculation& later : speculations_) later.search.match.wait();
+  speculations_.clear();
+  // Back to right after the key scan: the later key scans out of the map (their counters
+  // removed exactly), the later poses, key scans and draws forgotten.
+  const std::size_t k = spec.search.key;
+  for (std::size_t i = keys_.size(); i-- > k + 1;) {
+    update_map(map_, *keys_[i].points, keys_[i].mapped_pose, config_.update, /*remove=*/true,
+               false);
+  }
+  map_.commit_update();
+  keys_.resize(k + 1);
+  trajectory_.resize(spec.trajectory_size);
+  anchors_.resize(spec.trajectory_size);
+  rng_.set_state(spec.rng);
+  last_odometry_ = spec.last_odometry;
+  last_inserted_ = spec.last_inserted;
+  path_length_ = spec.path_length;
+  graph_ = std::move(spec.graph);
+  ++loop_closures_;
+  last_loop_ = LoopEvent{k, match->anchor, match->pose.relative_to(spec.search.estimate),
+                         match->value.agreement(), match->ambiguity};
+  apply_graph();
+  // The scans since, again, each as the mapping thread would have processed it.
+  replaying_ = true;
+  for (const LaserScan& s : spec.scans) process_scan(s);
+  replaying_ = false;
+  return true;
+}
+
+bool Slam::accept_loop(const LoopMatch& match, std::size_t k, PoseGraph& graph) const {
+  const double cost_before = graph.cost();
+  graph.add_edge(loop_edge(config_.loop, match, k));
+  graph.optimize(10);
+  // Accept only if the graph can take the closure without straining: the whole graph's cost
+  // (the new edge included) may grow by at most max_chi2.
+  return graph.cost() - cost_before <= config_.loop.max_chi2;
+}
+
+SlamStep Slam::process_scan(const LaserScan& scan) {
   const ScanPoints points =
       prepare_scan(scan, config_.tracking.min_range, config_.tracking.max_range);
   SlamStep step;
@@ -206,8 +284,21 @@ bool Slam::add_key_scan(const ScanPoints& points, const Pose2& pose, double stam
     return closed;
   }
   start_loop_search(k);
-  if (config_.loop.defer_keys == 0) closed = finish_loop_search() || closed;
-  return closed;
+  if (config_.loop.defer_keys > 0) return closed;
+  if (config_.loop.speculate && !replaying_) {
+    Speculation spec{std::move(*pending_loop_),
+                     rng_.state(),
+                     trajectory_.size(),
+                     last_odometry_,
+                     last_inserted_,
+                     path_length_,
+                     graph_,
+                     {}};
+    pending_loop_.reset();
+    speculations_.push_back(std::move(spec));
+    return closed;
+  }
+  return finish_loop_search() || closed;
 }
 
 void Slam::start_loop_search(std::size_t k) {
@@ -258,8 +349,16 @@ void Slam::start_loop_search(std::size_t k) {
     if (match) match->anchor = ids[match->anchor];
     return match;
   };
-  const auto policy = lc.defer_keys > 0 ? std::launch::async : std::launch::deferred;
-  pending_loop_ = PendingLoop{k, estimate, std::async(policy, std::move(search))};
+  const bool speculative = lc.defer_keys == 0 && lc.speculate && !replaying_;
+  const auto policy = lc.defer_keys > 0 || speculative ? std::launch::async : std::launch::deferred;
+  // Speculative searches run one after another: never more than one worker thread.
+  std::shared_future<std::optional<LoopMatch>> previous;
+  if (speculative && !speculations_.empty()) previous = speculations_.back().search.match;
+  pending_loop_ =
+      PendingLoop{k, estimate, std::async(policy, [search = std::move(search), previous]() mutable {
+                                 if (previous.valid()) previous.wait();
+                                 return search();
+                               }).share()};
 }
 
 bool Slam::finish_loop_search() {
@@ -268,20 +367,13 @@ bool Slam::finish_loop_search() {
   const std::optional<LoopMatch> match = pending.match.get();
   if (!match) return false;
   const std::size_t k = pending.key;
-  const PoseGraphEdge e = loop_edge(config_.loop, *match, k);
-  std::vector<Pose2> before = graph_.nodes();
-  const double cost_before = graph_.cost();
-  graph_.add_edge(e);
-  graph_.optimize(10);
-  // Accept only if the graph can take the closure without straining: the whole graph's cost
-  // (the new edge included) may grow by at most max_chi2.
-  if (graph_.cost() - cost_before > config_.loop.max_chi2) {
+  PoseGraph graph = graph_;
+  if (!accept_loop(*match, k, graph)) {
     // The graph cannot agree with this closure: drop it.
-    graph_.pop_edge();
-    graph_.set_nodes(std::move(before));
     ++loop_rejected_;
     return false;
   }
+  graph_ = std::move(graph);
   ++loop_closures_;
   last_loop_ = LoopEvent{k, match->anchor, match->pose.relative_to(pending.estimate),
                          match->value.agreement(), match->ambiguity};
@@ -293,7 +385,8 @@ SlamFinish Slam::finish(unsigned threads) {
   const auto t0 = Clock::now();
   SlamFinish out;
   if (!config_.loop.enabled) return out;
-  bool changed = pending_loop_ && finish_loop_search();
+  bool changed = settle();
+  changed = (pending_loop_ && finish_loop_search()) || changed;
   const LoopClosureConfig& lc = config_.loop;
   if (lc.final_pass && keys_.size() > 1) {
     LoopClosureConfig fc = lc;
@@ -387,6 +480,9 @@ void Slam::apply_graph() {
 }
 
 SlamState Slam::state() const {
+  if (!speculations_.empty()) {
+    throw std::logic_error("Slam::state() while a loop-closure search is speculative: settle()");
+  }
   SlamState s;
   s.rng = rng_.state();
   s.trajectory = trajectory_;
@@ -443,6 +539,9 @@ void Slam::restore(SlamState s) {
   loop_rejected_ = s.loop_rejected;
   last_loop_ = s.last_loop;
   pending_loop_.reset();
+  for (Speculation& spec : speculations_) spec.search.match.wait();
+  speculations_.clear();
+  replaying_ = false;
   // A state read only to look at its map (loop closure off) leaves the search undone.
   if (s.pending_loop_key && config_.loop.enabled) start_loop_search(*s.pending_loop_key);
 }

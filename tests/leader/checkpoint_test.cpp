@@ -73,21 +73,23 @@ TEST(CheckpointSchedule, AResumedLeaderContinuesExactlyAsAnUninterruptedOne) {
 TEST(CheckpointSchedule, TheJournalStaysAheadOfPublishesAndResumedTilesSupersedeThem) {
   const fs::path out = fresh_dir("journal");
   Slam slam;
-  CheckpointSchedule schedule(out.string(), 10, info());
   std::uint64_t published_max = 0;
-  for (int i = 0; i < 25; ++i) {
-    slam.process(scan(i));
-    schedule.after_scan(slam);
-    schedule.reserve(slam.map());  // before every publish
-    for (const TileKey k : slam.map().tile_keys()) {
-      published_max = std::max(published_max, slam.map().find_tile(k)->version);
+  {
+    CheckpointSchedule schedule(out.string(), 10, info());
+    for (int i = 0; i < 25; ++i) {
+      slam.process(scan(i));
+      schedule.after_scan(slam);
+      schedule.reserve(slam.map());  // before every publish
+      for (const TileKey k : slam.map().tile_keys()) {
+        published_max = std::max(published_max, slam.map().find_tile(k)->version);
+      }
+      // The journal on disk covers everything published so far.
+      std::ifstream in(out / "checkpoint" / "journal.json");
+      const nlohmann::json j = nlohmann::json::parse(in);
+      EXPECT_GE(j["version_ceiling"].get<std::uint64_t>(), published_max) << "scan " << i;
+      EXPECT_EQ(j["tiles"].size(), slam.map().tile_count()) << "scan " << i;
     }
-    // The journal on disk covers everything published so far.
-    std::ifstream in(out / "checkpoint" / "journal.json");
-    const nlohmann::json j = nlohmann::json::parse(in);
-    EXPECT_GE(j["version_ceiling"].get<std::uint64_t>(), published_max) << "scan " << i;
-    EXPECT_EQ(j["tiles"].size(), slam.map().tile_count()) << "scan " << i;
-  }
+  }  // the writer thread has written the checkpoint of scan 20 (it may still run before)
   // Resumed from scan 20: every tile above anything published, none missing.
   Slam resumed;
   const Resumed r = load_checkpoint(out.string(), resumed);

@@ -79,6 +79,13 @@ struct LoopClosureConfig {
   /// Not the default: on CSAIL (laser only) seed 4 it broke the trajectory with N = 3 and 5
   /// (docs/benchmarks.md, "SLAM speed").
   int defer_keys = 0;
+  /// With defer_keys 0: the search for key scan k runs on a worker thread while the mapping
+  /// thread goes on with the next scans speculatively. The result is then judged as at key k
+  /// (on a copy of the graph as it was); only an accepted closure undoes the scans since key k
+  /// (map, trajectory, key scans, random state) and processes them again after applying it.
+  /// The result is the same as with the search on the mapping thread, bit for bit; the search
+  /// costs the mapping thread nothing unless it closes a loop.
+  bool speculate = true;
   /// Final pass (Slam::finish): every key scan matched against the key scans near it from
   /// other times (at least min_travel away along the path) in a small window around its graph
   /// pose, the matches added as graph edges, the graph optimised with the outliers dropped.

@@ -13,6 +13,7 @@
 // closure over a pose graph of the inserted scans.
 
 #include <cstdint>
+#include <deque>
 #include <future>
 #include <optional>
 #include <vector>
@@ -142,7 +143,16 @@ class Slam {
   std::size_t key_scans() const { return keys_.size(); }
   const std::optional<LoopEvent>& last_loop() const { return last_loop_; }
 
-  /// A copy of the state besides the map (see SlamState).
+  /// Waits for a loop-closure search still running speculatively
+  /// (LoopClosureConfig::speculate) and applies its result: afterwards state() and the map
+  /// are what they would be with the search on the mapping thread. Returns true when it closed
+  /// a loop (the map and past poses changed).
+  bool settle();
+  /// Whether a speculative loop-closure search is still running (settle() ends it).
+  bool speculating() const { return !speculations_.empty(); }
+
+  /// A copy of the state besides the map (see SlamState). Throws std::logic_error while
+  /// speculating(): call settle() first.
   SlamState state() const;
   /// Replaces the state besides the map (the map is restored through map()). Throws
   /// std::invalid_argument naming the field when the parts do not fit together (graph nodes
@@ -187,9 +197,32 @@ class Slam {
   struct PendingLoop {
     std::size_t key = 0;
     Pose2 estimate;  ///< key scan `key`'s graph pose when the search started
-    std::future<std::optional<LoopMatch>> match;
+    std::shared_future<std::optional<LoopMatch>> match;
   };
   std::optional<PendingLoop> pending_loop_;
+  /// A speculative search and what it needs to go back to its key scan if it closes the loop:
+  /// the state right after that key scan was added, and the scans since.
+  struct Speculation {
+    PendingLoop search;
+    Rng::State rng;
+    std::size_t trajectory_size = 0;
+    std::optional<Pose2> last_odometry;
+    std::optional<Pose2> last_inserted;
+    double path_length = 0.0;
+    PoseGraph graph;
+    std::vector<LaserScan> scans;
+  };
+  /// Oldest first; their searches run one after another on worker threads and are applied
+  /// in this order (a later one started from the state the earlier one may undo).
+  std::deque<Speculation> speculations_;
+  /// Applies the oldest speculative search; true when it closed the loop.
+  bool settle_one();
+  /// Processing the scans of an undone speculation again: searches run on this thread.
+  bool replaying_ = false;
+  SlamStep process_scan(const LaserScan& scan);
+  /// The pending search's match as a graph edge on `graph` (the graph at the search's key
+  /// scan): true and the optimised graph if the graph can take it (cost increase <= max_chi2).
+  bool accept_loop(const LoopMatch& match, std::size_t k, PoseGraph& graph) const;
 };
 
 }  // namespace esfleet
