@@ -9,6 +9,8 @@
 //   noisy-odometry  a log rewritten with noisy wheel odometry (seeded), for the SLAM to use.
 //   generalise  the SLAM on sparse scans: the CSAIL key-scan log, CSAIL and fr079 subsampled,
 //             laser only and with noisy odometry, scored on relations over seeds.
+#include <malloc.h>
+
 #include "app/program.hpp"
 #include "generalise.hpp"
 #include "localise_bench.hpp"
@@ -18,6 +20,7 @@
 
 int main(int argc, char** argv) {
   using namespace esfleet;
+  mallopt(M_ARENA_MAX, 1);  // as esfleet-leader: its peak RSS is what `slam` reports
   app::Program program(
       "esfleet-bench", "bench",
       "esfleet-bench: speed and accuracy benchmarks (figures on stdout and in a file)");
