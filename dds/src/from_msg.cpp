@@ -43,7 +43,8 @@ std::size_t TilePartAssembler::pending_tiles() const {
 }
 
 void TilePartAssembler::drop_chunks(Entry& e) {
-  pending_bytes_ -= e.bytes;
+  pending_bytes_ -= e.bytes + kPartOverhead * e.received;
+  pending_parts_ -= e.received;
   e.chunks.clear();
   e.received = 0;
   e.bytes = 0;
@@ -80,6 +81,10 @@ std::optional<mapshare::TileMessage> TilePartAssembler::add_part(const Msg& m,
   if (parts == 0) return refuse("parts is 0");
   if (part >= parts) {
     return refuse("part " + std::to_string(part) + " of " + std::to_string(parts));
+  }
+  if (m.payload_size() > mapshare::kMaxTilePayloadBytes) {
+    return refuse("payload_size " + std::to_string(m.payload_size()) + ", more than the " +
+                  std::to_string(mapshare::kMaxTilePayloadBytes) + " any tile can need");
   }
   if (bytes.size() > m.payload_size()) {
     return refuse("part of " + std::to_string(bytes.size()) +
@@ -131,7 +136,6 @@ std::optional<mapshare::TileMessage> TilePartAssembler::add_part(const Msg& m,
     e.version = header.version;
     e.parts = parts;
     e.payload_size = m.payload_size();
-    e.chunks.resize(parts);
     e.header = std::move(header);
   } else {
     if (e.joined) return std::nullopt;  // a duplicate of a part already joined
@@ -143,13 +147,14 @@ std::optional<mapshare::TileMessage> TilePartAssembler::add_part(const Msg& m,
       return refuse("parts of version " + std::to_string(e.version) + " disagree");
     }
   }
-  if (e.chunks[part].has_value()) return std::nullopt;  // a duplicate
-  if (pending_bytes_ + bytes.size() > kMaxPendingBytes) {
+  if (e.chunks.contains(part)) return std::nullopt;  // a duplicate
+  if (pending_bytes_ + bytes.size() + kPartOverhead > kMaxPendingBytes) {
     return refuse("more than " + std::to_string(kMaxPendingBytes) + " bytes of parts waiting");
   }
   e.bytes += bytes.size();
-  pending_bytes_ += bytes.size();
-  e.chunks[part] = std::move(bytes);
+  pending_bytes_ += bytes.size() + kPartOverhead;
+  ++pending_parts_;
+  e.chunks.emplace(part, std::move(bytes));
   if (++e.received < e.parts) return std::nullopt;
   mapshare::TileMessage out = e.header;
   const std::size_t total = e.bytes;
@@ -160,7 +165,7 @@ std::optional<mapshare::TileMessage> TilePartAssembler::add_part(const Msg& m,
                   std::to_string(e.payload_size));
   }
   out.payload.reserve(total);
-  for (const auto& c : e.chunks) out.payload.insert(out.payload.end(), c->begin(), c->end());
+  for (const auto& [index, c] : e.chunks) out.payload.insert(out.payload.end(), c.begin(), c.end());
   drop_chunks(e);
   e.joined = true;
   return out;

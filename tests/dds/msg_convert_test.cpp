@@ -190,10 +190,35 @@ TEST(TileParts, InconsistentPartsAreRefusedNamingTheCause) {
   EXPECT_FALSE(joiner.add(msg::MapTile(p[1]), "w", &error));
   EXPECT_FALSE(joiner.add(msg::MapTile(p[2]), "w", &error));
   EXPECT_NE(error.find("payload_size 2100"), std::string::npos) << error;
+  p = tile_to_msgs(t);
+  p[0].payload_size(static_cast<std::uint32_t>(mapshare::kMaxTilePayloadBytes + 1));
+  EXPECT_FALSE(joiner.add(msg::MapTile(p[0]), "w", &error));
+  EXPECT_NE(error.find("any tile can need"), std::string::npos) << error;
   std::vector<msg::MapTile> one = tile_to_msgs(tile_with_payload(100, 10, rng));
   one[0].payload_size(99);
   EXPECT_FALSE(joiner.add(std::move(one[0]), "w", &error));
   EXPECT_NE(error.find("payload_size 99"), std::string::npos) << error;
+}
+
+TEST(TileParts, AHostilePeersHalfTilesAreBoundedInMemory) {
+  TilePartAssembler joiner;
+  std::string error;
+  std::size_t refused = 0;
+  // 70000 tiles that each claim 65535 parts and send one of 1000 bytes.
+  for (int k = 0; k < 70000; ++k) {
+    msg::MapTile m;
+    m.map_id("x");
+    m.tx(k);
+    m.version(1);
+    m.part(0);
+    m.parts(65535);
+    m.payload_size(static_cast<std::uint32_t>(mapshare::kMaxTilePayloadBytes));
+    m.payload(std::vector<std::uint8_t>(1000, 1));
+    if (!joiner.add(std::move(m), "rogue", &error) && !error.empty()) ++refused;
+  }
+  EXPECT_LE(joiner.pending_bytes(), TilePartAssembler::kMaxPendingBytes);
+  EXPECT_LE(joiner.pending_tiles(), TilePartAssembler::kMaxTiles);
+  EXPECT_GE(refused, 70000 - TilePartAssembler::kMaxTiles);
 }
 
 // Every sample esfleet sends on the map topics fits in one 1400-byte RTPS message, so Fast DDS

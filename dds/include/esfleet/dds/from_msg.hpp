@@ -39,15 +39,19 @@ mapshare::TileMessage delta_from_msg(msg::MapTileDelta&& m);
 /// Not thread-safe (feed it from one thread).
 class TilePartAssembler {
  public:
-  /// Waiting part bytes that make further new parts refused (a hostile peer's half tiles).
+  /// Waiting part bytes (payload plus kPartOverhead per part) that make further new parts
+  /// refused (a hostile peer's half tiles).
   static constexpr std::size_t kMaxPendingBytes = 64u << 20;
+  /// What one waiting part costs besides its payload, in the count against kMaxPendingBytes.
+  static constexpr std::size_t kPartOverhead = 64;
   /// Tiles remembered at once (waiting or joined), beyond which new tiles' parts are refused.
-  static constexpr std::size_t kMaxTiles = 1u << 18;
+  static constexpr std::size_t kMaxTiles = 1u << 16;
 
   /// Adds one received part. Returns the joined message when this part completed its version
   /// (also at once for a message of one part), std::nullopt otherwise. On std::nullopt,
   /// `error` (if given) is empty when the part was kept or was stale, and otherwise says why it
-  /// was refused: part >= parts, parts 0, a payload longer than payload_size, parts of one
+  /// was refused: part >= parts, parts 0, a payload_size above mapshare::kMaxTilePayloadBytes,
+  /// a part longer than payload_size, parts of one
   /// version that disagree (parts, payload_size, base version, layout), part sizes that do not
   /// add up to payload_size, or the memory bounds.
   /// `writer`: the sending writer's id (dds::SampleMeta::writer_guid).
@@ -58,8 +62,8 @@ class TilePartAssembler {
 
   /// Tiles with parts waiting.
   std::size_t pending_tiles() const;
-  /// Bytes of the parts waiting.
-  std::size_t pending_bytes() const { return pending_bytes_; }
+  /// Payload bytes of the parts waiting.
+  std::size_t pending_bytes() const { return pending_bytes_ - kPartOverhead * pending_parts_; }
 
  private:
   using Key =
@@ -71,9 +75,9 @@ class TilePartAssembler {
     mapshare::TileMessage header;  ///< the first part's fields, without payload
     std::uint16_t parts = 0;
     std::uint32_t payload_size = 0;
-    std::vector<std::optional<std::vector<std::uint8_t>>> chunks;
-    std::size_t received = 0;  ///< chunks present
-    std::size_t bytes = 0;     ///< their bytes
+    std::map<std::uint16_t, std::vector<std::uint8_t>> chunks;  ///< part -> its bytes
+    std::size_t received = 0;                                   ///< chunks present
+    std::size_t bytes = 0;                                      ///< their payload bytes
   };
   template <typename Msg>
   std::optional<mapshare::TileMessage> add_part(const Msg& m, const std::string& writer,
@@ -82,7 +86,8 @@ class TilePartAssembler {
   void drop_chunks(Entry& e);
 
   std::map<Key, Entry> entries_;
-  std::size_t pending_bytes_ = 0;
+  std::size_t pending_bytes_ = 0;  ///< payload + kPartOverhead per part, of the waiting parts
+  std::size_t pending_parts_ = 0;
 };
 mapshare::MetaMessage meta_from_msg(const msg::MapMeta& m);
 
