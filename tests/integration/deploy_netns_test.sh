@@ -14,10 +14,10 @@
 # Both followers must end with the leader's map (same map.digest), declare a first pose within
 # 0.3 m of the leader's pose for the same scan, and use no shared memory.
 #
-# usage: deploy_netns_test.sh BIN_DIR LOG DOMAIN lan|wifi [LOSS]
+# usage: deploy_netns_test.sh BIN_DIR LOG DOMAIN lan|wifi [LOSS] [RATE]
 # Exit 77 (skipped) without root, network namespaces, tc or nft.
 set -euo pipefail
-bin=$1 log=$2 domain=$3 mode=$4 loss=${5:-10}
+bin=$1 log=$2 domain=$3 mode=$4 loss=${5:-10} rate=${6:-2mbit}
 here=$(cd "$(dirname "$0")" && pwd)
 deploy=$(cd "$here/../../deploy" && pwd)
 testbed=$deploy/netns/testbed.sh
@@ -43,7 +43,7 @@ trap 'cleanup; "$testbed" down "$run"' EXIT
 # --- hosts: 1 = leader, 2 = follower A, 3 = follower B
 case $mode in
   lan) netem=() ;;
-  wifi) netem=(--loss "$loss" --rate 2mbit) ;;
+  wifi) netem=(--loss "$loss" --rate "$rate") ;;
   *) fail "mode must be lan or wifi" ;;
 esac
 rc=0
