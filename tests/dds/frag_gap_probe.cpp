@@ -29,6 +29,9 @@
 //  - whole: every payload is 1000 bytes (one DATA each, as esfleet's tile parts): the reader
 //    must end with the newest version of all six tiles.
 //
+// `fragmented` expects the abort on purpose: it fails once a Fast DDS update fixes the bug, which
+// is then the moment to reconsider the workaround (tiles in parts, dds::kTilePartBytes).
+//
 // usage: frag_gap_probe PROFILE_XML DOMAIN fragmented|whole
 //   PROFILE_XML: deploy/fastdds/localhost-udp.xml (its participant profile, transports replaced
 //   on the writer's side). Exit 0 when the case behaved as described above, 1 otherwise.
