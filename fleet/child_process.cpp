@@ -11,6 +11,7 @@
 #include <csignal>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
@@ -62,6 +63,22 @@ pid_t spawn(const std::vector<std::string>& argv, const std::string& log) {
 }
 
 void start(ChildProcess& c, const std::vector<std::string>& argv) { c.pid = spawn(argv, c.log); }
+
+void restart(ChildProcess& c, const std::vector<std::string>& argv) {
+  if (!c.exited) throw std::logic_error("restart of " + c.name + ", which has not exited");
+  std::error_code ignored;  // a log that cannot be kept is no reason not to restart
+  std::filesystem::rename(c.log, c.log + "." + std::to_string(c.restarts + 1), ignored);
+  c.deaths.push_back(c.exit_code);
+  ++c.restarts;
+  c.exited = false;
+  c.exit_code = 0;
+  c.ticks = 0;
+  c.rss_kb = 0;
+  c.cpu_percent = 0.0;
+  c.cpu_s_at_window = 0.0;
+  c.pid = -1;
+  start(c, argv);
+}
 
 void reap(ChildProcess& c) {
   if (c.exited || c.pid <= 0) return;

@@ -24,6 +24,8 @@ struct ChildProcess {
   std::uint64_t rss_kb_max = 0;  ///< over all samples
   double cpu_percent = 0.0;      ///< over the last sampling interval
   double cpu_s_at_window = 0.0;  ///< CPU seconds when the measuring window started
+  int restarts = 0;              ///< times restart() started it again after it died
+  std::vector<int> deaths;       ///< exit_code of each run that restart() replaced
 
   bool started() const { return pid > 0; }
   /// CPU seconds (user + system) at the last sample.
@@ -38,6 +40,13 @@ pid_t spawn(const std::vector<std::string>& argv, const std::string& log);
 
 /// Starts `c` with `argv` (spawn into c.log) and records its pid.
 void start(ChildProcess& c, const std::vector<std::string>& argv);
+
+/// Starts `c` again after it exited (c.exited): its log so far is kept as LOG.N (N = the
+/// restart's number, from 1), the exit code goes to c.deaths, c.restarts grows by one and the
+/// new process writes a fresh c.log. CPU figures start again from 0 (cpu_s() is the new
+/// process's), rss_kb_max keeps the maximum over all runs. Throws std::logic_error if `c` has not
+/// exited, std::runtime_error if fork fails.
+void restart(ChildProcess& c, const std::vector<std::string>& argv);
 
 /// Collects the exit status if `c` has exited; never blocks. No-op if not started or reaped.
 void reap(ChildProcess& c);

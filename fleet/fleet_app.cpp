@@ -252,6 +252,19 @@ bool FleetApp::check_children(double dt_s) {
       view_gone_logged_ = true;
     }
   }
+  // A follower that died (crashed, killed) is started again, as its systemd unit would: it
+  // rejoins, gets the map and localises anew. The leader and the simulator are not restarted.
+  for (std::size_t i = 0; i < followers_.size() && !stopping(); ++i) {
+    ChildProcess& f = followers_[i];
+    if (!f.exited || f.restarts >= o_.max_restarts) continue;
+    spdlog::warn("{} died (code {}); restarting it ({} of at most {}); its log so far: {}.{}",
+                 f.name, f.exit_code, f.restarts + 1, o_.max_restarts, f.log, f.restarts + 1);
+    try {
+      restart(f, follower_argv(o_, bin_dir_, static_cast<int>(i) + 1));
+    } catch (const std::exception& e) {
+      failure_ = fmt::format("cannot restart {}: {}", f.name, e.what());
+    }
+  }
   for (ChildProcess* c : children()) {
     if (c->exited && failure_.empty()) {
       failure_ = fmt::format("{} exited early (code {}); see {}", c->name, c->exit_code, c->log);

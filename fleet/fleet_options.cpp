@@ -39,6 +39,7 @@ void FleetOptions::validate() const {
   if (domain < 0 || domain > 232) throw UsageError("--domain must be in [0, 232]");
   if (!(rate > 0.0)) throw UsageError("--rate must be > 0");
   if (!(leader_rate >= 0.0)) throw UsageError("--leader-rate must be >= 0");
+  if (max_restarts < 0) throw UsageError("--max-restarts must be >= 0");
   if (view_port < -1 || view_port > 65535) throw UsageError("--view must be in [0, 65535]");
   for (const auto& [flag, path] :
        {std::pair{"--world", world}, std::pair{"--log", log}, std::pair{"--profile", profile}}) {
@@ -106,6 +107,12 @@ void add_fleet_flags(CLI::App& cli, FleetOptions& o) {
   cli.add_option("--follower-args", o.follower_args, "extra esfleet-follower flags (one string)")
       ->capture_default_str();
   cli.add_option("--sim-args", o.sim_args, "extra esfleet-sim flags (one string)");
+  cli.add_option("--max-restarts", o.max_restarts,
+                 "restart a follower that dies (crash, kill) up to N times, counted in the "
+                 "summary; its old log is kept as robot-K.log.1, .2, ... (0 = a dead follower "
+                 "ends the run)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
   cli.add_flag("--wait-map", o.wait_map,
                "start the simulator and followers only once the leader's map is complete (the "
                "fleet joins a mapped building; scale measurements). Default: all at once, the "

@@ -25,7 +25,9 @@ struct FleetOptions {
   /// DDS domain id of the fleet, [0, 232].
   int domain = 78;
   /// Fast DDS XML profile for every program.
-  std::string profile = "deploy/fastdds/localhost-shm.xml";
+  /// UDP on 127.0.0.1: with shared memory a follower restarted after a SIGKILL can get nothing
+  /// (docs/faults.md, "Shared memory and killed processes").
+  std::string profile = "deploy/fastdds/localhost-udp.xml";
   /// DDS Security: DIR/<id> per identity (identities()); empty = off.
   std::string secure;
   /// The simulator's world (ROS map YAML): the leader's map of `log`, so both share one frame.
@@ -46,6 +48,10 @@ struct FleetOptions {
   std::string follower_args = "--odometry on";
   /// Extra esfleet-sim flags, one string split at white space.
   std::string sim_args;
+  /// Times each follower is restarted after it died (crash, SIGKILL) before its death ends the
+  /// run as a failure; 0 = the first death of a follower ends the run. Restarts are counted in
+  /// the summary.
+  int max_restarts = 5;
   /// Start the simulator and the followers only once the leader's map is complete.
   bool wait_map = false;
   /// esfleet-view's port: the fleet in a browser at http://HOST:PORT/ (docs/view.md); -1 = no

@@ -81,6 +81,8 @@ nlohmann::json follower_summary(const ChildProcess& f, const RobotReport& r,
       {"realtime", rt},
       {"started", f.started()},
       {"exit_code", f.started() ? f.exit_code : -1},
+      {"restarts", f.restarts},
+      {"exit_codes_before_restarts", f.deaths},
   };
 }
 
@@ -101,8 +103,11 @@ FleetSummary build_summary(const FleetOptions& o, const FleetTimes& t, const std
     s.wrong += r.wrong_declarations > 0 ? 1 : 0;
     jf.push_back(std::move(j));
   }
+  int restarts = 0;
+  for (const ChildProcess& f : followers) restarts += f.restarts;
   s.json = {
       {"robots", o.robots},
+      {"follower_restarts", restarts},
       {"duration_s", t.end_s},
       {"followers_started_s", t.followers_start_s},
       {"all_tracking_s", t.window_start_s >= 0 ? t.window_start_s - t.followers_start_s : -1.0},

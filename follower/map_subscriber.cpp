@@ -71,9 +71,9 @@ void MapSubscriber::handle(Received& r) {
     return;
   }
   if (auto* tile = std::get_if<msg::MapTile>(&r.sample)) {
-    apply_tile(dds::tile_from_msg(std::move(*tile)), r.writer);
+    join_part(std::move(*tile), false, r.writer);
   } else if (auto* delta = std::get_if<msg::MapTileDelta>(&r.sample)) {
-    apply_tile(dds::delta_from_msg(std::move(*delta)), r.writer);
+    join_part(std::move(*delta), true, r.writer);
   } else {
     std::string error;
     const mapshare::Applied outcome =
@@ -82,6 +82,22 @@ void MapSubscriber::handle(Received& r) {
     if (outcome == mapshare::Applied::kRejected) {
       log_once(r.writer, "meta", "map summary dropped: " + error);
     }
+  }
+}
+
+template <class Msg>
+void MapSubscriber::join_part(Msg&& part, bool delta, const std::string& writer) {
+  const std::int32_t tx = part.tx(), ty = part.ty();
+  std::string error;
+  dds::TilePartAssembler& parts = delta ? delta_parts_ : tile_parts_;
+  if (std::optional<mapshare::TileMessage> t = parts.add(std::move(part), writer, &error)) {
+    apply_tile(*t, writer);
+  } else if (!error.empty()) {
+    ++stats_.parts_rejected;
+    stats_.count_tile(delta, mapshare::Applied::kRejected);
+    log_once(
+        writer, delta ? "delta" : "tile",
+        fmt::format("{} ({}, {}) part dropped: {}", delta ? "tile delta" : "tile", tx, ty, error));
   }
 }
 

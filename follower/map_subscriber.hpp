@@ -1,7 +1,9 @@
 #pragma once
 // The follower's map-sharing transport: DDS callbacks hand received tiles, tile deltas and
 // summaries to the application thread through a locked queue; the application thread converts
-// them (dds/include/esfleet/dds/from_msg.hpp) and applies them to the protocol's MapReplica,
+// them (dds/include/esfleet/dds/from_msg.hpp), joins the parts each tile and delta travels in
+// (dds::TilePartAssembler: a part, never a fragment, is the unit Fast DDS sees), applies them to
+// the protocol's MapReplica,
 // counts what became of them (mapshare::ReceiveStats), logs each kind of drop once per sending
 // writer and measures the tile latency (leader publish -> applied here).
 //
@@ -20,6 +22,7 @@
 #include <variant>
 #include <vector>
 
+#include "esfleet/dds/from_msg.hpp"
 #include "esfleet/dds/reader.hpp"
 #include "esfleet/mapshare/map_replica.hpp"
 
@@ -27,6 +30,9 @@ namespace esfleet::follower {
 
 struct FollowStats : mapshare::ReceiveStats {
   std::uint64_t bytes_received = 0;
+  /// Tile and delta parts refused before joining (inconsistent parts, assembly bounds); each
+  /// also counts as a rejected tile or delta.
+  std::uint64_t parts_rejected = 0;
   /// Per applied tile or delta: leader publish -> applied here.
   std::vector<double> latency_ms;
 };
@@ -71,11 +77,16 @@ class MapSubscriber {
   void push_tile(const Msg& m, const std::string& writer);
   void push(Received r);
   void handle(Received& r);
+  /// Joins one tile or delta part; applies the message once all its parts are in.
+  template <class Msg>
+  void join_part(Msg&& part, bool delta, const std::string& writer);
   /// Applies one tile or delta; counts, logs and measures it.
   void apply_tile(const mapshare::TileMessage& t, const std::string& writer);
   void log_once(const std::string& writer, const char* kind, const std::string& what);
 
   mapshare::MapReplica replica_;
+  dds::TilePartAssembler tile_parts_;
+  dds::TilePartAssembler delta_parts_;
   FollowStats stats_;
   std::mutex mutex_;
   std::condition_variable cv_;

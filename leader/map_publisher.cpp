@@ -31,10 +31,17 @@ void MapPublisher::publish_map(GridMap& map, double stamp, bool complete, std::u
   const auto now = static_cast<std::uint64_t>(realtime_ns());
   mapshare::Publication out =
       sender_.publish(map, stamp, complete, joined, scans, params_json, now);
+  // Each tile and delta in parts that fit in one RTPS message (dds::kTilePartBytes): Fast DDS
+  // never fragments them (docs/faults.md, "Fragmented tiles and the Fast DDS GAP bug").
+  const auto write_parts = [](auto& writer, auto parts) {
+    bool ok = true;
+    for (const auto& part : parts) ok = writer.write(part) && ok;
+    return ok;
+  };
   for (mapshare::TileMessage& t : out.tiles) {
     if (t.is_delta()) {
-      if (deltas_.write(dds::delta_to_msg(std::move(t)))) ++stats_.deltas;
-    } else if (tiles_.write(dds::tile_to_msg(std::move(t)))) {
+      if (write_parts(deltas_, dds::delta_to_msgs(std::move(t)))) ++stats_.deltas;
+    } else if (write_parts(tiles_, dds::tile_to_msgs(std::move(t)))) {
       ++stats_.tiles;
     }
   }

@@ -18,9 +18,9 @@ namespace esfleet::leader {
 
 struct PublishStats {
   std::uint64_t publishes = 0;       ///< calls to publish()
-  std::uint64_t tiles = 0;           ///< tile samples written
-  std::uint64_t tile_bytes = 0;      ///< their CDR bytes
-  std::uint64_t deltas = 0;          ///< tile delta samples written
+  std::uint64_t tiles = 0;           ///< tiles written (every part of each)
+  std::uint64_t tile_bytes = 0;      ///< CDR bytes of their parts
+  std::uint64_t deltas = 0;          ///< tile deltas written (every part of each)
   std::uint64_t delta_bytes = 0;     ///< their CDR bytes
   std::uint64_t meta_bytes = 0;      ///< summary CDR bytes
   std::uint64_t pose_bytes = 0;      ///< pose CDR bytes

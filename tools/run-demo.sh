@@ -2,7 +2,7 @@
 # The main job on bundled data:
 #  1. build; map the MIT CSAIL log with the leader (offline, with odometry), write the map and
 #     trajectory to out/csail, and score it against the relations;
-#  2. share a map over DDS on this host (shared memory): a leader maps the first 1000 scans and
+#  2. share a map over DDS on this host (UDP on 127.0.0.1): a leader maps the first 1000 scans and
 #     publishes them as tiles; a follower robot that has never seen the place receives the map
 #     and finds its own pose in it from its scans 600-1000 (no hint), then tracks itself. Its
 #     map must equal the leader's counter for counter;
@@ -22,7 +22,9 @@ echo "map: $out/map.png (ROS map_server files: $out/map.yaml, $out/map.pgm)"
 
 echo
 echo "== map sharing: leader and follower over DDS (domain ${ESFLEET_DEMO_DOMAIN:-77}) =="
-dds=(--domain "${ESFLEET_DEMO_DOMAIN:-77}" --profile deploy/fastdds/localhost-shm.xml)
+# UDP on the loopback, not shared memory: a program killed here (Ctrl-C twice, kill -9) does
+# not cut later ones off (docs/faults.md, "Shared memory and killed processes").
+dds=(--domain "${ESFLEET_DEMO_DOMAIN:-77}" --profile deploy/fastdds/localhost-udp.xml)
 build/bin/esfleet-leader --log "$log" --odometry on --max-scans 1000 "${dds[@]}" \
   --out "$out/shared/leader" --linger 120 >"$out/leader.log" 2>&1 &
 leader=$!

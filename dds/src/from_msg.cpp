@@ -1,6 +1,7 @@
 #include "esfleet/dds/from_msg.hpp"
 
 #include <cmath>
+#include <compare>
 #include <stdexcept>
 #include <string>
 
@@ -33,6 +34,141 @@ mapshare::TileMessage delta_from_msg(msg::MapTileDelta&& m) {
   mapshare::TileMessage t = tile_fields(m);
   t.base_version = m.base_version();
   return t;
+}
+
+std::size_t TilePartAssembler::pending_tiles() const {
+  std::size_t n = 0;
+  for (const auto& [key, e] : entries_) n += e.received > 0 ? 1 : 0;
+  return n;
+}
+
+void TilePartAssembler::drop_chunks(Entry& e) {
+  pending_bytes_ -= e.bytes + kPartOverhead * e.received;
+  pending_parts_ -= e.received;
+  e.chunks.clear();
+  e.received = 0;
+  e.bytes = 0;
+}
+
+std::optional<mapshare::TileMessage> TilePartAssembler::add(msg::MapTile&& part,
+                                                            const std::string& writer,
+                                                            std::string* error) {
+  std::vector<std::uint8_t> bytes = std::move(part.payload());
+  return add_part(part, writer, std::move(bytes), tile_fields(part), error);
+}
+
+std::optional<mapshare::TileMessage> TilePartAssembler::add(msg::MapTileDelta&& part,
+                                                            const std::string& writer,
+                                                            std::string* error) {
+  std::vector<std::uint8_t> bytes = std::move(part.payload());
+  mapshare::TileMessage header = tile_fields(part);
+  header.base_version = part.base_version();
+  return add_part(part, writer, std::move(bytes), std::move(header), error);
+}
+
+template <typename Msg>
+std::optional<mapshare::TileMessage> TilePartAssembler::add_part(const Msg& m,
+                                                                 const std::string& writer,
+                                                                 std::vector<std::uint8_t> bytes,
+                                                                 mapshare::TileMessage header,
+                                                                 std::string* error) {
+  const auto refuse = [&](const std::string& why) -> std::optional<mapshare::TileMessage> {
+    if (error != nullptr) *error = why;
+    return std::nullopt;
+  };
+  if (error != nullptr) error->clear();
+  const std::uint16_t part = m.part(), parts = m.parts();
+  if (parts == 0) return refuse("parts is 0");
+  if (part >= parts) {
+    return refuse("part " + std::to_string(part) + " of " + std::to_string(parts));
+  }
+  if (m.payload_size() > mapshare::kMaxTilePayloadBytes) {
+    return refuse("payload_size " + std::to_string(m.payload_size()) + ", more than the " +
+                  std::to_string(mapshare::kMaxTilePayloadBytes) + " any tile can need");
+  }
+  if (bytes.size() > m.payload_size()) {
+    return refuse("part of " + std::to_string(bytes.size()) +
+                  " bytes, more than the payload_size " + std::to_string(m.payload_size()));
+  }
+  if (parts == 1) {
+    if (bytes.size() != m.payload_size()) {
+      return refuse("payload of " + std::to_string(bytes.size()) + " bytes, payload_size " +
+                    std::to_string(m.payload_size()));
+    }
+    // Passed on whatever its version (the replica judges it), and remembered when newer than
+    // what waits, so that parts of an older version of more parts are dropped.
+    auto it = entries_.find(Key{writer, header.map_id, header.tx, header.ty});
+    if (it != entries_.end() &&
+        std::tie(header.epoch, header.version) > std::tie(it->second.epoch, it->second.version)) {
+      drop_chunks(it->second);
+      it->second = Entry{};
+      it->second.epoch = header.epoch;
+      it->second.version = header.version;
+      it->second.parts = 1;
+      it->second.joined = true;
+    } else if (it == entries_.end() && entries_.size() < kMaxTiles) {
+      Entry e;
+      e.epoch = header.epoch;
+      e.version = header.version;
+      e.parts = 1;
+      e.joined = true;
+      entries_.emplace(Key{writer, header.map_id, header.tx, header.ty}, std::move(e));
+    }
+    header.payload = std::move(bytes);
+    return header;
+  }
+  Key key{writer, header.map_id, header.tx, header.ty};
+  auto it = entries_.find(key);
+  if (it == entries_.end()) {
+    if (entries_.size() >= kMaxTiles) {
+      std::erase_if(entries_, [](const auto& kv) { return kv.second.received == 0; });
+      if (entries_.size() >= kMaxTiles) return refuse("too many tiles in assembly");
+    }
+    it = entries_.emplace(std::move(key), Entry{}).first;
+  }
+  Entry& e = it->second;
+  const auto order = std::tie(header.epoch, header.version) <=> std::tie(e.epoch, e.version);
+  if (e.parts != 0 && order < 0) return std::nullopt;  // an older version: stale
+  if (e.parts == 0 || order > 0) {                     // the first part of a newer version
+    drop_chunks(e);
+    e = Entry{};
+    e.epoch = header.epoch;
+    e.version = header.version;
+    e.parts = parts;
+    e.payload_size = m.payload_size();
+    e.header = std::move(header);
+  } else {
+    if (e.joined) return std::nullopt;  // a duplicate of a part already joined
+    const mapshare::TileMessage& h = e.header;
+    if (parts != e.parts || m.payload_size() != e.payload_size ||
+        header.base_version != h.base_version || header.cells != h.cells ||
+        header.tile_edge != h.tile_edge || header.encoding != h.encoding ||
+        header.cell_size != h.cell_size || header.protocol != h.protocol) {
+      return refuse("parts of version " + std::to_string(e.version) + " disagree");
+    }
+  }
+  if (e.chunks.contains(part)) return std::nullopt;  // a duplicate
+  if (pending_bytes_ + bytes.size() + kPartOverhead > kMaxPendingBytes) {
+    return refuse("more than " + std::to_string(kMaxPendingBytes) + " bytes of parts waiting");
+  }
+  e.bytes += bytes.size();
+  pending_bytes_ += bytes.size() + kPartOverhead;
+  ++pending_parts_;
+  e.chunks.emplace(part, std::move(bytes));
+  if (++e.received < e.parts) return std::nullopt;
+  mapshare::TileMessage out = e.header;
+  const std::size_t total = e.bytes;
+  if (total != e.payload_size) {
+    drop_chunks(e);
+    e.joined = true;
+    return refuse("parts of " + std::to_string(total) + " bytes in all, payload_size " +
+                  std::to_string(e.payload_size));
+  }
+  out.payload.reserve(total);
+  for (const auto& [index, c] : e.chunks) out.payload.insert(out.payload.end(), c.begin(), c.end());
+  drop_chunks(e);
+  e.joined = true;
+  return out;
 }
 
 mapshare::MetaMessage meta_from_msg(const msg::MapMeta& m) {

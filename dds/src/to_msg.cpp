@@ -1,5 +1,9 @@
 #include "esfleet/dds/to_msg.hpp"
 
+#include <algorithm>
+#include <limits>
+#include <stdexcept>
+
 namespace esfleet::dds {
 
 static_assert(mapshare::kProtocolVersion == msg::kProtocolVersion,
@@ -20,9 +24,37 @@ Msg tile_fields(mapshare::TileMessage& t) {
   m.tile_edge(t.tile_edge);
   m.encoding(t.encoding);
   m.cells(t.cells);
+  m.part(0);
+  m.parts(1);
+  m.payload_size(static_cast<std::uint32_t>(t.payload.size()));
   m.payload(std::move(t.payload));
   m.leader_stamp_ns(t.stamp_ns);
   return m;
+}
+
+/// `t` cut into parts of at most `part_bytes` payload bytes (see tile_to_msgs).
+template <typename Msg>
+std::vector<Msg> split(mapshare::TileMessage& t, std::size_t part_bytes) {
+  if (part_bytes == 0) throw std::invalid_argument("tile_to_msgs: part_bytes must be > 0");
+  const std::size_t size = t.payload.size();
+  const std::size_t n = std::max<std::size_t>(1, (size + part_bytes - 1) / part_bytes);
+  if (n > std::numeric_limits<std::uint16_t>::max()) {
+    throw std::invalid_argument("tile_to_msgs: " + std::to_string(size) +
+                                " payload bytes need more than 65535 parts of " +
+                                std::to_string(part_bytes));
+  }
+  std::vector<std::uint8_t> payload = std::move(t.payload);
+  t.payload.clear();
+  std::vector<Msg> out(n, tile_fields<Msg>(t));
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::size_t begin = i * part_bytes, end = std::min(size, begin + part_bytes);
+    out[i].part(static_cast<std::uint16_t>(i));
+    out[i].parts(static_cast<std::uint16_t>(n));
+    out[i].payload_size(static_cast<std::uint32_t>(size));
+    out[i].payload().assign(payload.begin() + static_cast<std::ptrdiff_t>(begin),
+                            payload.begin() + static_cast<std::ptrdiff_t>(end));
+  }
+  return out;
 }
 
 /// The fields RobotPose and TruthPose share: the robot, the protocol and the timed pose.
@@ -38,6 +70,16 @@ Msg timed_pose_fields(const std::string& robot_id, const TimedPose& pose) {
   return m;
 }
 }  // namespace
+
+std::vector<msg::MapTile> tile_to_msgs(mapshare::TileMessage tile, std::size_t part_bytes) {
+  return split<msg::MapTile>(tile, part_bytes);
+}
+
+std::vector<msg::MapTileDelta> delta_to_msgs(mapshare::TileMessage delta, std::size_t part_bytes) {
+  std::vector<msg::MapTileDelta> out = split<msg::MapTileDelta>(delta, part_bytes);
+  for (msg::MapTileDelta& m : out) m.base_version(delta.base_version.value_or(0));
+  return out;
+}
 
 msg::MapTile tile_to_msg(mapshare::TileMessage tile) { return tile_fields<msg::MapTile>(tile); }
 

@@ -4,9 +4,13 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
+#include <random>
 #include <string>
+
+#include <esfleet/msg/esfleetPubSubTypes.h>
 
 #include "esfleet/dds/from_msg.hpp"
 #include "esfleet/dds/to_msg.hpp"
@@ -56,6 +60,192 @@ TEST(MsgConvert, TilesAndDeltasCrossTheWireUnchanged) {
   const msg::MapTileDelta d = delta_to_msg(delta);
   EXPECT_EQ(d.base_version(), 40u);
   expect_same(delta_from_msg(msg::MapTileDelta(d)), delta);
+}
+
+mapshare::TileMessage tile_with_payload(std::size_t bytes, std::uint64_t version,
+                                        std::mt19937& rng) {
+  mapshare::TileMessage t = sample_tile();
+  t.version = version;
+  t.payload.resize(bytes);
+  for (auto& b : t.payload) b = static_cast<std::uint8_t>(rng());
+  return t;
+}
+
+TEST(TileParts, TilesAndDeltasAreCutIntoPartsAndJoinedInAnyOrder) {
+  for (const unsigned seed : {1u, 2u, 3u, 4u, 5u}) {
+    SCOPED_TRACE("seed " + std::to_string(seed));
+    std::mt19937 rng(seed);
+    const mapshare::TileMessage whole = tile_with_payload(2500, 42, rng);
+    std::vector<msg::MapTile> parts = tile_to_msgs(whole);
+    ASSERT_EQ(parts.size(), 3u);
+    for (std::size_t i = 0; i < parts.size(); ++i) {
+      EXPECT_EQ(parts[i].part(), i);
+      EXPECT_EQ(parts[i].parts(), 3);
+      EXPECT_EQ(parts[i].payload_size(), 2500u);
+      EXPECT_EQ(parts[i].payload().size(), i < 2 ? kTilePartBytes : 2500 - 2 * kTilePartBytes);
+    }
+    std::shuffle(parts.begin(), parts.end(), rng);
+    TilePartAssembler joiner;
+    std::string error;
+    EXPECT_FALSE(joiner.add(std::move(parts[0]), "w", &error));
+    EXPECT_EQ(error, "");
+    EXPECT_FALSE(joiner.add(std::move(parts[1]), "w", &error));
+    EXPECT_EQ(joiner.pending_tiles(), 1u);
+    const auto joined = joiner.add(std::move(parts[2]), "w", &error);
+    ASSERT_TRUE(joined) << error;
+    expect_same(*joined, whole);
+    EXPECT_EQ(joiner.pending_bytes(), 0u);
+
+    mapshare::TileMessage delta = tile_with_payload(1025, 43, rng);
+    delta.base_version = 42;
+    std::vector<msg::MapTileDelta> dparts = delta_to_msgs(delta);
+    ASSERT_EQ(dparts.size(), 2u);
+    EXPECT_EQ(dparts[1].base_version(), 42u);
+    TilePartAssembler djoiner;
+    EXPECT_FALSE(djoiner.add(std::move(dparts[1]), "w"));
+    const auto djoined = djoiner.add(std::move(dparts[0]), "w");
+    ASSERT_TRUE(djoined);
+    expect_same(*djoined, delta);
+  }
+}
+
+TEST(TileParts, SmallAndEmptyPayloadsTravelAsOnePart) {
+  mapshare::TileMessage t = sample_tile();
+  t.payload.assign(kTilePartBytes, 7);
+  std::vector<msg::MapTile> parts = tile_to_msgs(t);
+  ASSERT_EQ(parts.size(), 1u);
+  TilePartAssembler joiner;
+  const auto joined = joiner.add(std::move(parts[0]), "w");
+  ASSERT_TRUE(joined);
+  expect_same(*joined, t);
+  t.payload.clear();
+  EXPECT_EQ(tile_to_msgs(t).size(), 1u);
+  EXPECT_THROW(tile_to_msgs(t, 0), std::invalid_argument);
+}
+
+TEST(TileParts, ANewerVersionReplacesTheOlderPartsAndLateOlderPartsAreDropped) {
+  std::mt19937 rng(11);
+  std::vector<msg::MapTile> v5 = tile_to_msgs(tile_with_payload(3000, 5, rng));
+  const mapshare::TileMessage six = tile_with_payload(2000, 6, rng);
+  std::vector<msg::MapTile> v6 = tile_to_msgs(six);
+  TilePartAssembler joiner;
+  std::string error;
+  EXPECT_FALSE(joiner.add(std::move(v5[0]), "w", &error));
+  EXPECT_FALSE(joiner.add(std::move(v6[1]), "w", &error));
+  EXPECT_EQ(joiner.pending_bytes(), 2000 - kTilePartBytes);  // version 5's part was dropped
+  const auto joined = joiner.add(std::move(v6[0]), "w", &error);
+  ASSERT_TRUE(joined) << error;
+  EXPECT_EQ(joined->version, 6u);
+  // What a late joiner reads from KEEP_LAST 1: the third part of version 5 (version 6 has two).
+  EXPECT_FALSE(joiner.add(std::move(v5[2]), "w", &error));
+  EXPECT_EQ(error, "");
+  EXPECT_EQ(joiner.pending_bytes(), 0u);
+  // A one-part version 7 also makes version 6's parts stale.
+  mapshare::TileMessage seven = tile_with_payload(10, 7, rng);
+  std::vector<msg::MapTile> v7 = tile_to_msgs(seven);
+  ASSERT_TRUE(joiner.add(std::move(v7[0]), "w"));
+  std::vector<msg::MapTile> v6again = tile_to_msgs(six);
+  EXPECT_FALSE(joiner.add(std::move(v6again[0]), "w", &error));
+  EXPECT_EQ(error, "");
+  EXPECT_EQ(joiner.pending_bytes(), 0u);
+}
+
+TEST(TileParts, AnotherWritersNewerVersionDoesNotDisturbTheJoining) {
+  std::mt19937 rng(14);
+  const mapshare::TileMessage leader = tile_with_payload(2000, 5, rng);
+  std::vector<msg::MapTile> parts = tile_to_msgs(leader);
+  TilePartAssembler joiner;
+  EXPECT_FALSE(joiner.add(std::move(parts[0]), "leader"));
+  // A rogue's bogus version 1000 of the same tile, in one part and in two.
+  EXPECT_TRUE(joiner.add(std::move(tile_to_msgs(tile_with_payload(10, 1000, rng))[0]), "rogue"));
+  EXPECT_FALSE(joiner.add(std::move(tile_to_msgs(tile_with_payload(1500, 1001, rng))[0]), "rogue"));
+  const auto joined = joiner.add(std::move(parts[1]), "leader");
+  ASSERT_TRUE(joined);
+  expect_same(*joined, leader);
+}
+
+TEST(TileParts, InconsistentPartsAreRefusedNamingTheCause) {
+  std::mt19937 rng(12);
+  const mapshare::TileMessage t = tile_with_payload(2100, 9, rng);
+  TilePartAssembler joiner;
+  std::string error;
+  std::vector<msg::MapTile> p = tile_to_msgs(t);
+  p[0].part(3);
+  EXPECT_FALSE(joiner.add(msg::MapTile(p[0]), "w", &error));
+  EXPECT_EQ(error, "part 3 of 3");
+  p[0].parts(0);
+  EXPECT_FALSE(joiner.add(msg::MapTile(p[0]), "w", &error));
+  EXPECT_EQ(error, "parts is 0");
+  p = tile_to_msgs(t);
+  p[1].payload_size(10);
+  EXPECT_FALSE(joiner.add(msg::MapTile(p[1]), "w", &error));
+  EXPECT_NE(error.find("more than the payload_size"), std::string::npos) << error;
+  p = tile_to_msgs(t);
+  EXPECT_FALSE(joiner.add(msg::MapTile(p[0]), "w", &error));
+  p[1].tile_edge(32);
+  EXPECT_FALSE(joiner.add(msg::MapTile(p[1]), "w", &error));
+  EXPECT_EQ(error, "parts of version 9 disagree");
+  p = tile_to_msgs(t);
+  p[2].payload().pop_back();  // sizes that do not add up
+  EXPECT_FALSE(joiner.add(msg::MapTile(p[1]), "w", &error));
+  EXPECT_FALSE(joiner.add(msg::MapTile(p[2]), "w", &error));
+  EXPECT_NE(error.find("payload_size 2100"), std::string::npos) << error;
+  p = tile_to_msgs(t);
+  p[0].payload_size(static_cast<std::uint32_t>(mapshare::kMaxTilePayloadBytes + 1));
+  EXPECT_FALSE(joiner.add(msg::MapTile(p[0]), "w", &error));
+  EXPECT_NE(error.find("any tile can need"), std::string::npos) << error;
+  std::vector<msg::MapTile> one = tile_to_msgs(tile_with_payload(100, 10, rng));
+  one[0].payload_size(99);
+  EXPECT_FALSE(joiner.add(std::move(one[0]), "w", &error));
+  EXPECT_NE(error.find("payload_size 99"), std::string::npos) << error;
+}
+
+TEST(TileParts, AHostilePeersHalfTilesAreBoundedInMemory) {
+  TilePartAssembler joiner;
+  std::string error;
+  std::size_t refused = 0;
+  // 70000 tiles that each claim 65535 parts and send one of 1000 bytes.
+  for (int k = 0; k < 70000; ++k) {
+    msg::MapTile m;
+    m.map_id("x");
+    m.tx(k);
+    m.version(1);
+    m.part(0);
+    m.parts(65535);
+    m.payload_size(static_cast<std::uint32_t>(mapshare::kMaxTilePayloadBytes));
+    m.payload(std::vector<std::uint8_t>(1000, 1));
+    if (!joiner.add(std::move(m), "rogue", &error) && !error.empty()) ++refused;
+  }
+  EXPECT_LE(joiner.pending_bytes(), TilePartAssembler::kMaxPendingBytes);
+  EXPECT_LE(joiner.pending_tiles(), TilePartAssembler::kMaxTiles);
+  EXPECT_GE(refused, 70000 - TilePartAssembler::kMaxTiles);
+}
+
+// Every sample esfleet sends on the map topics fits in one 1400-byte RTPS message, so Fast DDS
+// never fragments it: at most 1284 bytes of serialized data (1400 - RTPS header 20 - INFO_DST 16
+// - INFO_TS 12 - DATA_FRAG header 36 - heartbeat 32, Fast DDS 2.9.1 RTPSWriter.cpp:303-322).
+TEST(TileParts, TheLargestSamplesFitInOneRtpsMessageOf1400Bytes) {
+  constexpr std::uint32_t kMaxData = 1284;
+  std::mt19937 rng(13);
+  mapshare::TileMessage t = tile_with_payload(5 * kTilePartBytes, 1, rng);
+  t.map_id = std::string(64, 'm');
+  t.base_version = 0;
+  msg::MapTilePubSubType tile_type;
+  for (msg::MapTile& m : tile_to_msgs(t)) {
+    const std::uint32_t size = tile_type.getSerializedSizeProvider(&m)();
+    EXPECT_LE(size, kMaxData);
+    EXPECT_GT(size, kTilePartBytes);
+  }
+  msg::MapTileDeltaPubSubType delta_type;
+  for (msg::MapTileDelta& m : delta_to_msgs(t)) {
+    EXPECT_LE(delta_type.getSerializedSizeProvider(&m)(), kMaxData);
+  }
+  mapshare::MetaMessage meta;
+  meta.map_id = std::string(64, 'm');
+  meta.params = std::string(2000, 'p');  // cut to 1024 on the wire
+  msg::MapMeta mm = meta_to_msg(meta);
+  msg::MapMetaPubSubType meta_type;
+  EXPECT_LE(meta_type.getSerializedSizeProvider(&mm)(), kMaxData);
 }
 
 TEST(MsgConvert, SummaryCrossesTheWireAndLongParametersAreCut) {

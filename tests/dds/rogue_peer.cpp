@@ -230,8 +230,18 @@ int main(int argc, char** argv) try {
 
   std::mt19937 rng(213);
   std::uint64_t n_tiles = 0, n_deltas = 0, n_metas = 0, n_oversized = 0, rounds = 0;
-  const auto write_tile = [&](msg::MapTile t) { n_tiles += tile_w->write(&t) ? 1 : 0; };
-  const auto write_delta = [&](msg::MapTileDelta d) { n_deltas += delta_w->write(&d) ? 1 : 0; };
+  // Every bad sample as a message of one part (protocol 2), so that the follower judges its
+  // content, not its part fields.
+  const auto write_tile = [&](msg::MapTile t) {
+    t.parts(1);
+    t.payload_size(static_cast<std::uint32_t>(t.payload().size()));
+    n_tiles += tile_w->write(&t) ? 1 : 0;
+  };
+  const auto write_delta = [&](msg::MapTileDelta d) {
+    d.parts(1);
+    d.payload_size(static_cast<std::uint32_t>(d.payload().size()));
+    n_deltas += delta_w->write(&d) ? 1 : 0;
+  };
   const auto write_meta = [&](msg::MapMeta m) { n_metas += meta_w->write(&m) ? 1 : 0; };
   std::int32_t flood_next = 1'000'000;
   while (!done()) {

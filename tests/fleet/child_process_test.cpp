@@ -114,5 +114,26 @@ TEST_F(ChildProcessTest, SampleReadsMemoryAndZeroesCpuOnceExited) {
   EXPECT_EQ(c_.rss_kb_max, rss_max);
 }
 
+TEST_F(ChildProcessTest, RestartStartsADeadChildAgainKeepingItsLogAndCountingIt) {
+  run_sh("echo first-run; kill -9 $$");
+  EXPECT_THROW(restart(c_, {"/bin/sh", "-c", "true"}), std::logic_error);  // still running
+  wait_exit();
+  ASSERT_TRUE(c_.exited);
+  EXPECT_EQ(c_.exit_code, 128 + SIGKILL);
+  const pid_t first = c_.pid;
+  restart(c_, {"/bin/sh", "-c", "echo second-run; exit 4"});
+  EXPECT_NE(c_.pid, first);
+  EXPECT_FALSE(c_.exited);
+  EXPECT_EQ(c_.restarts, 1);
+  ASSERT_EQ(c_.deaths, std::vector<int>{128 + SIGKILL});
+  wait_exit();
+  EXPECT_EQ(c_.exit_code, 4);
+  EXPECT_EQ(log_text(), "second-run\n");
+  std::ifstream old(c_.log + ".1");
+  std::string line;
+  std::getline(old, line);
+  EXPECT_EQ(line, "first-run");
+}
+
 }  // namespace
 }  // namespace esfleet::fleet

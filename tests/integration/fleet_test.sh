@@ -5,24 +5,42 @@
 # follower localised with no hint, none declared a wrong pose, tracking error against the
 # simulator's truth is small, every follower ended with the leader's map, and the summary's
 # fields are there.
+# KILL_AT > 0: robot-1's follower is SIGKILLed KILL_AT seconds after the launcher started; the
+# launcher must restart it (one restart, death code 137 in the summary), and it must localise
+# again and end with the leader's map like the others.
 #
-# usage: fleet_test.sh BIN_DIR SOURCE_DIR DOMAIN [ROBOTS] [DURATION]
+# usage: fleet_test.sh BIN_DIR SOURCE_DIR DOMAIN [ROBOTS] [DURATION] [KILL_AT]
 set -euo pipefail
-bin=$1 src=$2 domain=$3 robots=${4:-2} duration=${5:-75}
+bin=$1 src=$2 domain=$3 robots=${4:-2} duration=${5:-75} kill_at=${6:-0}
 source "$(dirname "$0")/common.sh" fleet
 
 cd "$src"
 "$bin/esfleet-fleet" --robots "$robots" --duration "$duration" --domain "$domain" \
-  --out "$work/fleet" --summary "$work/summary.json" --live false >"$work/fleet.log" 2>&1 ||
-  fail "esfleet-fleet exited with $?"
+  --out "$work/fleet" --summary "$work/summary.json" --live false >"$work/fleet.log" 2>&1 &
+fleet=$!
+if [ "$kill_at" -gt 0 ]; then
+  sleep "$kill_at"
+  victim=$(pgrep -f -- "esfleet-follower --scan-topic robot-1 .*--domain $domain " | head -n 1)
+  [ -n "$victim" ] || fail "robot-1's follower is not running after $kill_at s"
+  kill -KILL "$victim"
+  echo "robot-1's follower (pid $victim) SIGKILLed after $kill_at s"
+fi
+wait $fleet || fail "esfleet-fleet exited with $?"
 tail -n "$((robots + 6))" "$work/fleet.log"
 cp "$work"/fleet/*.log "$work/" 2>/dev/null || true
 
-python3 - "$work/summary.json" "$robots" <<'PY' || fail "fleet summary check"
+python3 - "$work/summary.json" "$robots" "$kill_at" <<'PY' || fail "fleet summary check"
 import json, sys
 s = json.load(open(sys.argv[1]))
-robots = int(sys.argv[2])
+robots, kill_at = int(sys.argv[2]), int(sys.argv[3])
 ok = s["robots"] == robots and len(s["followers"]) == robots and s["failure"] == ""
+restarts = [f["restarts"] for f in s["followers"]]
+print(f"follower restarts {restarts}, total {s['follower_restarts']}, "
+      f"codes {[f['exit_codes_before_restarts'] for f in s['followers']]}")
+want = [1 if kill_at > 0 and k == 0 else 0 for k in range(robots)]
+ok = ok and restarts == want and s["follower_restarts"] == sum(want)
+if kill_at > 0:
+    ok = ok and s["followers"][0]["exit_codes_before_restarts"] == [137]
 for f in s["followers"]:
     print(f"{f['robot_id']}: localised {f['localised']} after {f['time_to_localise_s']:.1f} s, "
           f"first pose error {f['first_pose_error_m']:.3f} m / {f['first_pose_error_deg']:.2f} deg, "

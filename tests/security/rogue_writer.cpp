@@ -113,6 +113,8 @@ int main(int argc, char** argv) {
     tile.encoding(0);
     tile.cells(64 * 64);
     tile.payload(std::vector<std::uint8_t>(64 * 64 * 8, 0xab));
+    tile.parts(1);
+    tile.payload_size(64 * 64 * 8);
     return run(*node, o, tile);
   }
   esfleet::msg::RobotPose pose;

@@ -87,6 +87,8 @@ int main(int argc, char** argv) {
     tile.map_id("cost");
     tile.protocol(esfleet::dds::kProtocolVersion);
     tile.payload(std::vector<std::uint8_t>(bytes, 0x5a));
+    tile.parts(1);
+    tile.payload_size(static_cast<std::uint32_t>(bytes));
     const auto t0 = Clock::now();
     for (int i = 0; i < count; ++i) {
       tile.tx(i % 10);

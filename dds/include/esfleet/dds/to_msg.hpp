@@ -2,8 +2,10 @@
 // Outgoing: core and map-sharing values as the wire types of idl/esfleet.idl, field for field.
 // No Fast DDS entities here (only the generated message classes).
 
+#include <cstddef>
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include <esfleet/msg/esfleet.h>
 
@@ -13,9 +15,28 @@
 
 namespace esfleet::dds {
 
-/// A whole tile (`tile.is_delta()` must be false); the payload is moved.
+/// Most payload bytes in one tile or delta sample. A sample then serialises to at most ~1.2 kB
+/// (tile_part_sample_test checks it with a 64-character map id), below the 1284 bytes of data
+/// Fast DDS 2.9.1 puts in one 1400-byte RTPS message before it fragments (maxMessageSize minus
+/// the RTPS header, INFO_DST, INFO_TS, DATA_FRAG header and a heartbeat: RTPSWriter.cpp:303-322).
+/// Samples that are never fragmented cannot meet the Fast DDS 2.9.1 GAP bug that aborted
+/// followers (docs/faults.md, "Fragmented tiles and the Fast DDS GAP bug").
+inline constexpr std::size_t kTilePartBytes = 1024;
+
+/// A whole tile (`tile.is_delta()` must be false) as the samples that carry it: its payload cut
+/// into parts of at most `part_bytes` (> 0) bytes, part i of n holding bytes
+/// [i * part_bytes, (i + 1) * part_bytes); an empty payload gives one part. Every part carries
+/// the tile's key, layout, version and the whole payload's size. Throws std::invalid_argument
+/// for part_bytes 0 or more than 65535 parts.
+std::vector<msg::MapTile> tile_to_msgs(mapshare::TileMessage tile,
+                                       std::size_t part_bytes = kTilePartBytes);
+/// The same for a tile delta (`delta.is_delta()` must be true).
+std::vector<msg::MapTileDelta> delta_to_msgs(mapshare::TileMessage delta,
+                                             std::size_t part_bytes = kTilePartBytes);
+/// A whole tile as one sample (part 0 of 1, whatever its size); the payload is moved. For tests
+/// and the fuzz seeds: the leader sends tile_to_msgs.
 msg::MapTile tile_to_msg(mapshare::TileMessage tile);
-/// A tile delta (`delta.is_delta()` must be true); the payload is moved.
+/// A tile delta as one sample (part 0 of 1); the payload is moved.
 msg::MapTileDelta delta_to_msg(mapshare::TileMessage delta);
 /// The map summary. The wire holds at most 1024 characters of parameters: longer ones are cut.
 msg::MapMeta meta_to_msg(const mapshare::MetaMessage& meta);

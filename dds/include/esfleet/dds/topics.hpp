@@ -19,7 +19,7 @@ namespace esfleet::dds {
 /// Version of the wire protocol; every message's `protocol` field must hold it. Mirrors
 /// esfleet::msg::kProtocolVersion in idl/esfleet.idl (a static_assert in node.cpp keeps the two
 /// equal). Readers drop samples of any other protocol.
-inline constexpr std::uint16_t kProtocolVersion = 1;
+inline constexpr std::uint16_t kProtocolVersion = 2;
 
 /// DDS domain used when nothing else is configured.
 inline constexpr int kDefaultDomain = 0;
