@@ -1,17 +1,22 @@
 // libFuzzer target: tile payload decoding (every encoding) and the follower's validation and
 // apply path (dds/from_msg, then mapshare::MapReplica) for tiles, tile deltas and summaries
 // built from the input bytes
-// (layout: tile_records.hpp). Invariants checked after every record:
+// (layout: tile_records.hpp), and tile and delta parts joined by dds::TilePartAssembler first.
+// Invariants checked after every record:
 //  - decode_tile either throws TileDecodeError or yields `cells` counters that re-encode and
 //    decode to the same counters;
 //  - a message MapReplica does not apply leaves the map exactly as it was (same digest, epoch
 //    and summary), and a rejection says why;
 //  - an applied tile holds the message's version; every tile of the map lies in the allowed key
-//    range and has tile_edge^2 cells.
+//    range and has tile_edge^2 cells;
+//  - a refused part says why; a joined message's payload is as long as its parts declared; the
+//    parts waiting stay within the assembler's bounds.
 
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "esfleet/core/tile_codec.hpp"
@@ -109,6 +114,40 @@ void after_apply(mapshare::Applied a, const std::string& error, const Snapshot& 
   check_replica(r);
 }
 
+/// One part from the input through `parts`; a joined message goes to the replica.
+template <typename Msg>
+bool fuzz_part(esfleet::fuzz::RecordReader& in, dds::TilePartAssembler& parts,
+               mapshare::MapReplica& replica) {
+  std::uint8_t writer = 0;
+  std::uint16_t part = 0, count = 0;
+  std::uint32_t payload_size = 0;
+  if (!in.take(writer) || !in.take(part) || !in.take(count) || !in.take(payload_size)) {
+    return false;
+  }
+  Msg m;
+  std::uint64_t base = 0;
+  constexpr bool kDelta = std::is_same_v<Msg, esfleet::msg::MapTileDelta>;
+  if (!esfleet::fuzz::read_tile_fields(in, m, kDelta ? &base : nullptr)) return false;
+  if constexpr (kDelta) m.base_version(base);
+  m.part(part);
+  m.parts(count);
+  m.payload_size(payload_size);
+  std::string error;
+  const std::optional<mapshare::TileMessage> joined =
+      parts.add(std::move(m), std::string("writer-") + std::to_string(writer % 3), &error);
+  check(parts.pending_bytes() <= dds::TilePartAssembler::kMaxPendingBytes,
+        "waiting parts within the byte bound");
+  check(parts.pending_tiles() <= dds::TilePartAssembler::kMaxTiles,
+        "waiting tiles within the tile bound");
+  if (!joined) return true;
+  check(error.empty(), "a joined message has no error");
+  check(joined->payload.size() == payload_size, "a joined payload has the declared size");
+  const Snapshot before(replica, joined->key());
+  std::string apply_error;
+  after_apply(replica.apply(*joined, &apply_error), apply_error, before, replica, &*joined);
+  return true;
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
@@ -121,11 +160,12 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   esfleet::GridMapConfig local;
   local.max_tile_coord = 64;
   mapshare::MapReplica replica((flags & 1) != 0 ? "" : "fuzz", local);
+  dds::TilePartAssembler parts;
   for (int records = 0; records < 64 && !in.empty(); ++records) {
     std::uint8_t kind = 0;
     if (!in.take(kind)) break;
     std::string error;
-    switch (static_cast<esfleet::fuzz::RecordKind>(kind % 4)) {
+    switch (static_cast<esfleet::fuzz::RecordKind>(kind % esfleet::fuzz::kRecordKinds)) {
       case esfleet::fuzz::RecordKind::kDecode:
         fuzz_decode(in);
         break;
@@ -145,6 +185,14 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         const mapshare::TileMessage delta = dds::delta_from_msg(std::move(d));
         const Snapshot before(replica, delta.key());
         after_apply(replica.apply(delta, &error), error, before, replica, &delta);
+        break;
+      }
+      case esfleet::fuzz::RecordKind::kPart: {
+        std::uint8_t delta = 0;
+        if (!in.take(delta)) return 0;
+        const bool ok = (delta & 1) != 0 ? fuzz_part<esfleet::msg::MapTileDelta>(in, parts, replica)
+                                         : fuzz_part<esfleet::msg::MapTile>(in, parts, replica);
+        if (!ok) return 0;
         break;
       }
       case esfleet::fuzz::RecordKind::kMeta: {

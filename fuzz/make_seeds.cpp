@@ -161,6 +161,25 @@ int main(int argc, char** argv) {
       esfleet::fuzz::write_tile_fields(d, esfleet::dds::delta_to_msg(std::move(t)), &base_version);
     }
     save(dir + "/delta-enc" + name, d);
+    // The changed tile at its final version, raw (32 kB: 32 parts of 1 kB, protocol 2), in parts
+    // as the leader sends it.
+    if (enc == esfleet::TileEncoding::kRaw) {
+      RecordWriter p;
+      p.put(std::uint8_t{0});
+      esfleet::GridMap whole;
+      const esfleet::Tile& last = *map.find_tile(delta_key);
+      whole.set_tile(delta_key, last.version, last.hit, last.err);
+      esfleet::mapshare::TileSender parts_sender(id, enc);
+      parts_sender.republish_all(whole);
+      for (esfleet::mapshare::TileMessage& t :
+           parts_sender.publish(whole, 0.0, true, false, 1, "{}", 0).tiles) {
+        for (const auto& part : esfleet::dds::tile_to_msgs(std::move(t))) {
+          p.put(static_cast<std::uint8_t>(RecordKind::kPart));
+          esfleet::fuzz::write_part_record(p, part, nullptr, 0);
+        }
+      }
+      save(dir + "/parts-enc" + name, p);
+    }
     // The bare decoder on one tile (the changed one, at its final version).
     esfleet::GridMap only;
     const esfleet::Tile& final_tile = *map.find_tile(delta_key);

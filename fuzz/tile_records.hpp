@@ -26,7 +26,10 @@
 
 namespace esfleet::fuzz {
 
-enum class RecordKind : std::uint8_t { kDecode = 0, kTile = 1, kDelta = 2, kMeta = 3 };
+/// kPart: [delta u8][writer u8][part u16][parts u16][payload_size u32] then a tile or delta
+/// record's fields: one part for dds::TilePartAssembler (protocol 2).
+enum class RecordKind : std::uint8_t { kDecode = 0, kTile = 1, kDelta = 2, kMeta = 3, kPart = 4 };
+inline constexpr std::uint8_t kRecordKinds = 5;
 
 inline const char* map_id_of(std::uint8_t selector) {
   static constexpr const char* kIds[] = {"fuzz", "other", ""};
@@ -129,6 +132,18 @@ void write_tile_fields(RecordWriter& out, const Msg& m, const std::uint64_t* bas
   out.put(m.encoding());
   out.put(m.cells());
   out.put_payload(m.payload());
+}
+
+/// A kPart record (after its kind byte) of part `m` from writer `writer`.
+template <typename Msg>
+void write_part_record(RecordWriter& out, const Msg& m, const std::uint64_t* base,
+                       std::uint8_t writer) {
+  out.put(static_cast<std::uint8_t>(base != nullptr ? 1 : 0));
+  out.put(writer);
+  out.put(m.part());
+  out.put(m.parts());
+  out.put(m.payload_size());
+  write_tile_fields(out, m, base);
 }
 
 inline bool read_meta(RecordReader& in, msg::MapMeta& m) {
