@@ -283,7 +283,8 @@ bool Slam::add_key_scan(const ScanPoints& points, const Pose2& pose, double stam
   if (last_loop_ && k - last_loop_->key < static_cast<std::size_t>(config_.loop.cooldown)) {
     return closed;
   }
-  start_loop_search(k);
+  // No old scans near enough: nothing to search (no worker, no state kept).
+  if (!start_loop_search(k)) return closed;
   if (config_.loop.defer_keys > 0) return closed;
   if (config_.loop.speculate && !replaying_) {
     Speculation spec{std::move(*pending_loop_),
@@ -301,7 +302,7 @@ bool Slam::add_key_scan(const ScanPoints& points, const Pose2& pose, double stam
   return finish_loop_search() || closed;
 }
 
-void Slam::start_loop_search(std::size_t k) {
+bool Slam::start_loop_search(std::size_t k) {
   const LoopClosureConfig& lc = config_.loop;
   const Pose2 estimate = graph_.node(k);
   const double path_length = keys_[k].path_length;
@@ -330,6 +331,7 @@ void Slam::start_loop_search(std::size_t k) {
     search_config.window_xy =
         loop_search_window_xy(lc, path_length - keys_[near.front().second].path_length);
   }
+  if (ids.empty()) return false;
   std::vector<KeyScan> old_keys;
   std::vector<Pose2> old_poses;
   old_keys.reserve(ids.size());
@@ -343,7 +345,6 @@ void Slam::start_loop_search(std::size_t k) {
                  fitness = slam_fitness_options(
                      config_.tracking, config_.tracking.interpolation !=
                                            Interpolation::kNone)]() -> std::optional<LoopMatch> {
-    if (ids.empty()) return std::nullopt;
     auto match = find_loop_closure(old_keys, old_poses, points, estimate, path_length, lc, map,
                                    update, fitness);
     if (match) match->anchor = ids[match->anchor];
@@ -359,6 +360,7 @@ void Slam::start_loop_search(std::size_t k) {
                                  if (previous.valid()) previous.wait();
                                  return search();
                                }).share()};
+  return true;
 }
 
 bool Slam::finish_loop_search() {

@@ -169,8 +169,9 @@ class Slam {
   /// returns true when the graph was re-optimised.
   bool add_key_scan(const ScanPoints& points, const Pose2& pose, double stamp);
   /// Starts the loop-closure search for key scan k against the older key scans at their
-  /// current graph poses (a copy of the few it needs; on a worker thread when deferred).
-  void start_loop_search(std::size_t k);
+  /// current graph poses (a copy of the few it needs; on a worker thread when deferred or
+  /// speculative). Returns false, starting nothing, when too few old scans are near it.
+  bool start_loop_search(std::size_t k);
   /// Waits for the pending search and turns its match, if any, into a graph edge; returns
   /// true when the closure was accepted and the graph re-optimised.
   bool finish_loop_search();
