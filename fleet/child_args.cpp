@@ -1,6 +1,9 @@
 #include "child_args.hpp"
 
+#include <unistd.h>
+
 #include <sstream>
+#include <stdexcept>
 
 namespace esfleet::fleet {
 
@@ -25,11 +28,33 @@ std::vector<std::string> dds_args(const FleetOptions& o, const std::string& id) 
   return flags;
 }
 
-std::vector<std::string> leader_argv(const FleetOptions& o, const std::string& bin_dir) {
-  return with(with({bin_dir + "/esfleet-leader", "--log", o.log, "--rate",
-                    std::to_string(o.leader_rate), "--linger", "-1", "--out", o.out + "/leader"},
-                   dds_args(o, "leader")),
-              split_args(o.leader_args));
+std::vector<std::string> leader_argv(const FleetOptions& o, const std::string& bin_dir,
+                                     bool resume) {
+  std::vector<std::string> argv = {bin_dir + "/esfleet-leader",
+                                   "--log",
+                                   o.log,
+                                   "--rate",
+                                   std::to_string(o.leader_rate),
+                                   "--linger",
+                                   "-1",
+                                   "--out",
+                                   o.out + "/leader"};
+  if (resume) argv = with(argv, {"--resume", o.out + "/leader"});
+  return with(with(argv, dds_args(o, "leader")), split_args(o.leader_args));
+}
+
+std::vector<std::string> on_host(const FleetOptions& o, int host, std::vector<std::string> argv) {
+  if (o.netns.empty()) return argv;
+  // spawn() takes a path: iproute2's `ip` where Debian and others put it.
+  std::string ip;
+  for (const char* p : {"/usr/sbin/ip", "/sbin/ip", "/usr/bin/ip", "/bin/ip"}) {
+    if (access(p, X_OK) == 0) {
+      ip = p;
+      break;
+    }
+  }
+  if (ip.empty()) throw std::runtime_error("--netns: no 'ip' program (package iproute2)");
+  return with({ip, "netns", "exec", "esf-" + o.netns + "-" + std::to_string(host)}, argv);
 }
 
 std::vector<std::string> follower_argv(const FleetOptions& o, const std::string& bin_dir, int k) {

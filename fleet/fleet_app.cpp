@@ -149,7 +149,7 @@ std::vector<ChildProcess*> FleetApp::children() {
 
 void FleetApp::start_leader() {
   try {
-    start(leader_, leader_argv(o_, bin_dir_));
+    start(leader_, on_host(o_, kLeaderHost, leader_argv(o_, bin_dir_)));
     if (o_.view_port >= 0) {
       start(view_, view_argv(o_, bin_dir_));
       char host[256] = "localhost";
@@ -194,9 +194,10 @@ void FleetApp::start_robots() {
   try {
     if (stopping()) throw std::runtime_error("stopped before the followers started");
     for (int k = 1; k <= o_.robots; ++k) {
-      start(followers_[static_cast<std::size_t>(k - 1)], follower_argv(o_, bin_dir_, k));
+      start(followers_[static_cast<std::size_t>(k - 1)],
+            on_host(o_, follower_host(k), follower_argv(o_, bin_dir_, k)));
     }
-    start(sim_, sim_argv(o_, bin_dir_));
+    start(sim_, on_host(o_, kSimHost, sim_argv(o_, bin_dir_)));
   } catch (const std::exception& e) {
     fail(e.what());
   }
@@ -253,18 +254,20 @@ bool FleetApp::check_children(double dt_s) {
     }
   }
   // A follower that died (crashed, killed) is started again, as its systemd unit would: it
-  // rejoins, gets the map and localises anew. The leader and the simulator are not restarted.
+  // rejoins, gets the map and localises anew. The simulator is not restarted.
   for (std::size_t i = 0; i < followers_.size() && !stopping(); ++i) {
     ChildProcess& f = followers_[i];
     if (!f.exited || f.restarts >= o_.max_restarts) continue;
     spdlog::warn("{} died (code {}); restarting it ({} of at most {}); its log so far: {}.{}",
                  f.name, f.exit_code, f.restarts + 1, o_.max_restarts, f.log, f.restarts + 1);
     try {
-      restart(f, follower_argv(o_, bin_dir_, static_cast<int>(i) + 1));
+      const int k = static_cast<int>(i) + 1;
+      restart(f, on_host(o_, follower_host(k), follower_argv(o_, bin_dir_, k)));
     } catch (const std::exception& e) {
       failure_ = fmt::format("cannot restart {}: {}", f.name, e.what());
     }
   }
+  restart_leader();
   for (ChildProcess* c : children()) {
     if (c->exited && failure_.empty()) {
       failure_ = fmt::format("{} exited early (code {}); see {}", c->name, c->exit_code, c->log);
@@ -275,6 +278,23 @@ bool FleetApp::check_children(double dt_s) {
     return false;
   }
   return true;
+}
+
+void FleetApp::restart_leader() {
+  if (stopping() || !leader_.exited || leader_.restarts >= o_.max_leader_restarts) return;
+  // As the leader's systemd unit would: the same map continues from its last checkpoint (the
+  // followers keep theirs: same map id and epoch), or a new map when it left none.
+  const bool resume = fs::exists(o_.out + "/leader/checkpoint");
+  spdlog::warn(
+      "the leader died (code {}); restarting it ({} of at most {}{}); its log so far: {}.{}",
+      leader_.exit_code, leader_.restarts + 1, o_.max_leader_restarts,
+      resume ? ", --resume from its checkpoint" : ", no checkpoint: a new map", leader_.log,
+      leader_.restarts + 1);
+  try {
+    restart(leader_, on_host(o_, kLeaderHost, leader_argv(o_, bin_dir_, resume)));
+  } catch (const std::exception& e) {
+    failure_ = fmt::format("cannot restart the leader: {}", e.what());
+  }
 }
 
 void FleetApp::draw(double dt_s) {

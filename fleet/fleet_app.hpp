@@ -64,6 +64,8 @@ class FleetApp {
   void watch();
   /// Once a second: samples, starts the window when all track. False when a child has exited.
   bool check_children(double dt_s);
+  /// A leader that died is started again (--max-leader-restarts), from its checkpoint if any.
+  void restart_leader();
   void draw(double dt_s);
   void stop_children();
   /// Writes the summary and prints its line; the exit code.

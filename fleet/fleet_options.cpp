@@ -1,5 +1,6 @@
 #include "fleet_options.hpp"
 
+#include <cctype>
 #include <filesystem>
 #include <utility>
 
@@ -40,6 +41,22 @@ void FleetOptions::validate() const {
   if (!(rate > 0.0)) throw UsageError("--rate must be > 0");
   if (!(leader_rate >= 0.0)) throw UsageError("--leader-rate must be >= 0");
   if (max_restarts < 0) throw UsageError("--max-restarts must be >= 0");
+  if (max_leader_restarts < 0) throw UsageError("--max-leader-restarts must be >= 0");
+  if (!netns.empty()) {
+    // The testbed's names: esf-RUN-1 .. esf-RUN-K (deploy/netns/testbed.sh).
+    for (const char ch : netns) {
+      if (!std::isalnum(static_cast<unsigned char>(ch)) && ch != '_') {
+        throw UsageError("--netns " + netns + ": a testbed RUN name is letters, digits and _");
+      }
+    }
+    const std::string last = "esf-" + netns + "-" + std::to_string(netns_hosts());
+    if (!fs::exists("/var/run/netns/" + last)) {
+      throw UsageError("--netns " + netns + ": no network namespace " + last + " (" +
+                       std::to_string(netns_hosts()) +
+                       " hosts needed: deploy/netns/testbed.sh up " + netns + " " +
+                       std::to_string(netns_hosts()) + ")");
+    }
+  }
   if (view_port < -1 || view_port > 65535) throw UsageError("--view must be in [0, 65535]");
   for (const auto& [flag, path] :
        {std::pair{"--world", world}, std::pair{"--log", log}, std::pair{"--profile", profile}}) {
@@ -113,6 +130,16 @@ void add_fleet_flags(CLI::App& cli, FleetOptions& o) {
                  "ends the run)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
+  cli.add_option("--max-leader-restarts", o.max_leader_restarts,
+                 "restart the leader when it dies up to N times, with --resume from its "
+                 "checkpoint in OUT/leader when there is one; counted in the summary (0 = a dead "
+                 "leader ends the run)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  cli.add_option("--netns", o.netns,
+                 "run each program in its own host of deploy/netns/testbed.sh RUN (needs "
+                 "robots + 2 hosts): leader on host 1, simulator on 2, robot k's follower on "
+                 "k + 2; use a --profile that reaches the other hosts (lan-udp.xml)");
   cli.add_flag("--wait-map", o.wait_map,
                "start the simulator and followers only once the leader's map is complete (the "
                "fleet joins a mapped building; scale measurements). Default: all at once, the "

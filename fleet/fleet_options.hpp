@@ -52,6 +52,15 @@ struct FleetOptions {
   /// run as a failure; 0 = the first death of a follower ends the run. Restarts are counted in
   /// the summary.
   int max_restarts = 5;
+  /// Times the leader is restarted after it died, as its systemd unit would (Restart=
+  /// on-failure): with --resume OUT/leader when it left a checkpoint there, else anew. 0 = the
+  /// leader's death ends the run. Counted in the summary.
+  int max_leader_restarts = 5;
+  /// Run every program in a host of its own of deploy/netns/testbed.sh RUN (network namespace
+  /// esf-RUN-i): the leader on host 1, the simulator on 2, robot k's follower on k + 2. The
+  /// launcher itself (and esfleet-view) stays where it is started, normally on host 1 (the
+  /// soak, tools/soak.sh). Empty = all on this host.
+  std::string netns;
   /// Start the simulator and the followers only once the leader's map is complete.
   bool wait_map = false;
   /// esfleet-view's port: the fleet in a browser at http://HOST:PORT/ (docs/view.md); -1 = no
@@ -64,6 +73,8 @@ struct FleetOptions {
   /// Redraw the status table every second (else print it every 5 s); default: on a terminal.
   bool live = isatty(STDOUT_FILENO) != 0;
 
+  /// Hosts --netns needs: robots + 2.
+  int netns_hosts() const { return robots + 2; }
   /// --summary, or OUT/summary.json when it is empty.
   std::string summary_path() const;
   /// --bin-dir, or the directory of the running executable when it is empty.

@@ -25,7 +25,9 @@ nlohmann::json process_summary(const ChildProcess& c, double window_s) {
   return {{"cpu_s", c.cpu_s()},
           {"rss_mb_max", mb(c.rss_kb_max)},
           {"cpu_percent_window", window_cpu_percent(c, window_s)},
-          {"exit_code", c.exit_code}};
+          {"exit_code", c.exit_code},
+          {"restarts", c.restarts},
+          {"exit_codes_before_restarts", c.deaths}};
 }
 
 }  // namespace
@@ -50,6 +52,7 @@ nlohmann::json follower_summary(const ChildProcess& f, const RobotReport& r,
   return {
       {"robot_id", f.name},
       {"final_state", status_name(r.status)},
+      {"last_error_m", r.last_error_xy_m ? *r.last_error_xy_m : -1.0},
       {"localised", r.localised_s.has_value()},
       {"time_to_localise_s", r.localised_s ? *r.localised_s - t.followers_start_s : -1.0},
       {"first_pose_error_m", r.first_error_xy_m ? *r.first_error_xy_m : -1.0},
@@ -108,6 +111,7 @@ FleetSummary build_summary(const FleetOptions& o, const FleetTimes& t, const std
   s.json = {
       {"robots", o.robots},
       {"follower_restarts", restarts},
+      {"leader_restarts", leader.restarts},
       {"duration_s", t.end_s},
       {"followers_started_s", t.followers_start_s},
       {"all_tracking_s", t.window_start_s >= 0 ? t.window_start_s - t.followers_start_s : -1.0},

@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <string>
 #include <vector>
 
@@ -34,6 +35,30 @@ TEST(ChildArgs, LeaderMapsTheLogAndLingers) {
             (Args{"BIN/esfleet-leader", "--log", "a.clf", "--rate", "0.000000", "--linger", "-1",
                   "--out", "OUT/leader", "--domain", "9", "--profile", "p.xml", "--odometry", "on",
                   "--loop-final", "off", "--loop-window-max-xy", "0"}));
+}
+
+TEST(ChildArgs, ARestartedLeaderResumesItsCheckpoint) {
+  const Args a = leader_argv(options(), "BIN", /*resume=*/true);
+  const auto it = std::find(a.begin(), a.end(), "--resume");
+  ASSERT_NE(it, a.end());
+  EXPECT_EQ(*(it + 1), "OUT/leader");
+  // The same log: the leader skips what its checkpoint holds.
+  EXPECT_EQ(a[1], "--log");
+  EXPECT_EQ(a[2], "a.clf");
+}
+
+TEST(ChildArgs, NetnsRunsEachProgramOnItsTestbedHost) {
+  FleetOptions o = options();
+  const Args f = follower_argv(o, "BIN", 2);
+  EXPECT_EQ(on_host(o, follower_host(2), f), f);  // --netns off: unchanged
+  o.netns = "t1";
+  const Args wrapped = on_host(o, follower_host(2), f);
+  ASSERT_EQ(wrapped.size(), f.size() + 4);
+  EXPECT_EQ(wrapped[0].substr(wrapped[0].size() - 3), "/ip");
+  EXPECT_EQ((Args{wrapped[1], wrapped[2], wrapped[3]}), (Args{"netns", "exec", "esf-t1-4"}));
+  EXPECT_EQ(Args(wrapped.begin() + 4, wrapped.end()), f);
+  EXPECT_EQ(on_host(o, kLeaderHost, {"x"}).at(3), "esf-t1-1");
+  EXPECT_EQ(on_host(o, kSimHost, {"x"}).at(3), "esf-t1-2");
 }
 
 TEST(ChildArgs, FollowerKListensToRobotKWithSeedPlusK) {

@@ -64,8 +64,11 @@ class FleetOptionsFiles : public ::testing::Test {
 TEST(FleetFlags, ParseIntoTheOptions) {
   FleetOptions o;
   ASSERT_EQ(parse(o, {"--robots", "3", "--domain", "9", "--leader-args", "--odometry off --mu 50",
-                      "--wait-map", "--live", "false", "--rate", "2.5"}),
+                      "--wait-map", "--live", "false", "--rate", "2.5", "--netns", "s1",
+                      "--max-leader-restarts", "7"}),
             std::nullopt);
+  EXPECT_EQ(o.netns, "s1");
+  EXPECT_EQ(o.max_leader_restarts, 7);
   EXPECT_EQ(o.robots, 3);
   EXPECT_EQ(o.domain, 9);
   EXPECT_EQ(o.leader_args, "--odometry off --mu 50");
@@ -73,6 +76,7 @@ TEST(FleetFlags, ParseIntoTheOptions) {
   EXPECT_FALSE(o.live);
   EXPECT_DOUBLE_EQ(o.rate, 2.5);
   // Untouched flags keep their defaults.
+  EXPECT_EQ(o.max_restarts, 5);
   EXPECT_EQ(o.follower_args, "--odometry on");
   EXPECT_EQ(o.out, "out/fleet");
   EXPECT_EQ(o.summary_path(), "out/fleet/summary.json");
@@ -130,6 +134,18 @@ TEST_F(FleetOptionsFiles, ViewNeedsItsProgramAndItsIdentity) {
   o_.view_port = 0;
   const std::vector<std::string> ids = o_.identities();
   EXPECT_NE(std::find(ids.begin(), ids.end(), "view"), ids.end());
+}
+
+TEST_F(FleetOptionsFiles, NetnsNeedsATestbedWithAHostPerProgram) {
+  o_.netns = "no_such_run_x";  // --robots 2: hosts 1 .. 4
+  EXPECT_EQ(usage_error(o_),
+            "--netns no_such_run_x: no network namespace esf-no_such_run_x-4 (4 hosts needed: "
+            "deploy/netns/testbed.sh up no_such_run_x 4)");
+  o_.netns = "a-b";
+  EXPECT_EQ(usage_error(o_), "--netns a-b: a testbed RUN name is letters, digits and _");
+  o_.netns.clear();
+  o_.max_leader_restarts = -1;
+  EXPECT_EQ(usage_error(o_), "--max-leader-restarts must be >= 0");
 }
 
 TEST(FleetFlags, ViewTakesAPort) {
