@@ -14,7 +14,11 @@
 # Both followers must end with the leader's map (same map.digest), declare a first pose within
 # 0.3 m of the leader's pose for the same scan, and use no shared memory.
 #
+# The leader maps at full speed (--rate 0); its mapping rate (scans per second of the SLAM
+# loop, publishing included) and publishing figures are printed from its stats.json.
+#
 # usage: deploy_netns_test.sh BIN_DIR LOG DOMAIN lan|wifi [LOSS] [RATE]
+#   RATE: tc rate of every link in wifi mode (default 2mbit), "none" for no cap.
 # Exit 77 (skipped) without root, network namespaces, tc or nft.
 set -euo pipefail
 bin=$1 log=$2 domain=$3 mode=$4 loss=${5:-10} rate=${6:-2mbit}
@@ -43,7 +47,10 @@ trap 'cleanup; "$testbed" down "$run"' EXIT
 # --- hosts: 1 = leader, 2 = follower A, 3 = follower B
 case $mode in
   lan) netem=() ;;
-  wifi) netem=(--loss "$loss" --rate "$rate") ;;
+  wifi)
+    netem=(--loss "$loss")
+    [ "$rate" = none ] || netem+=(--rate "$rate")
+    ;;
   *) fail "mode must be lan or wifi" ;;
 esac
 rc=0
@@ -148,6 +155,20 @@ shm_check() {
   done
 }
 
+# leader_figures: the leader's mapping rate and publishing figures, from its stats.json.
+leader_figures() {
+  python3 - "$work" <<'PY'
+import json, sys
+work = sys.argv[1]
+s = json.load(open(f"{work}/leader/stats.json"))
+p = s["dds"]["publisher"]
+print(f"leader: {s['scans']} scans in {s['wall_s']:.2f} s of mapping, "
+      f"{s['scans'] / s['wall_s']:.1f} scans/s; published {s['dds']['bytes_total'] / 1e3:.0f} kB "
+      f"({s['dds']['tiles_published']} tiles, {s['dds']['deltas_published']} deltas) in "
+      f"{p['rounds']} rounds, {p['coalesced']} of {p['tiles_handed_over']} tile copies "
+      f"coalesced, hand-over {p['handover_s']:.3f} s")
+PY
+}
 t0=$(date +%s%N)
 elapsed() { echo "$((($(date +%s%N) - t0) / 10000000))" | sed -E 's/(..)$/.\1/'; }
 [ "$mode" = lan ] && "$testbed" cut "$run" 3
@@ -165,6 +186,7 @@ for _ in $(seq 1 1000); do
   if [ $ended = 0 ] && grep -q "log ended" "$work/leader.log"; then
     ended=1
     echo "leader: log ended after $(elapsed) s"
+    leader_figures || fail "no leader figures"
     if [ "$mode" = lan ]; then "$testbed" heal "$run" 3; fi
   fi
   kill -0 "$pid_a" 2>/dev/null || kill -0 "$pid_b" 2>/dev/null || break
