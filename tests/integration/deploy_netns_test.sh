@@ -187,6 +187,7 @@ for _ in $(seq 1 1000); do
     ended=1
     echo "leader: log ended after $(elapsed) s"
     leader_figures || fail "no leader figures"
+    echo "leader map digest: $(sha256sum <"$work/leader/map.digest" | cut -c1-16)"
     if [ "$mode" = lan ]; then "$testbed" heal "$run" 3; fi
   fi
   kill -0 "$pid_a" 2>/dev/null || kill -0 "$pid_b" 2>/dev/null || break
