@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Publishing never blocks mapping (docs/faults.md): the Wi-Fi deployment (deploy_netns_test.sh
 # wifi: a leader mapping 600 CSAIL scans at full speed and two followers in three network
-# namespaces, no loss) run twice, with no rate cap and with 256 kbit/s on every link. Each run
+# namespaces, no loss; the followers start first so that they are matched while the leader
+# maps) run twice, with no rate cap and with 256 kbit/s on every link. Each run
 # must end with both followers holding the leader's exact map (the deployment test checks the
 # digests); the two leaders must make the same map (the SLAM does not depend on the network);
 # and the leader's mapping rate with the cap must be at least 1/1.5 of the rate without it
@@ -13,9 +14,9 @@
 set -uo pipefail
 bin=$1 log=$2 domain=$3
 here=$(cd "$(dirname "$0")" && pwd)
-declare -A rate digest
+declare -A rate digest coalesced
 for cap in none 256kbit; do
-  out=$("$here/deploy_netns_test.sh" "$bin" "$log" "$domain" wifi 0 "$cap" 2>&1)
+  out=$("$here/deploy_netns_test.sh" "$bin" "$log" "$domain" wifi 0 "$cap" followers-first 2>&1)
   rc=$?
   [ $rc -ne 77 ] || { echo "$out" | tail -1; exit 77; }
   if [ $rc -ne 0 ]; then
@@ -27,7 +28,12 @@ for cap in none 256kbit; do
   echo "$out" | grep -E "^leader: [0-9]|^wifi: follower|^OK"
   rate[$cap]=$(echo "$out" | sed -n 's/^leader: .* \([0-9.]*\) scans\/s.*/\1/p')
   digest[$cap]=$(echo "$out" | sed -n 's/^leader map digest: //p')
+  coalesced[$cap]=$(echo "$out" | sed -n 's/^leader: .* \([0-9]*\) of [0-9]* tile copies coalesced.*/\1/p')
 done
+# Without back-pressure while it mapped (the followers matched only after), the capped run
+# would say nothing about it.
+[ "${coalesced[256kbit]:-0}" -gt 0 ] ||
+  { echo "FAIL: with the cap no tile copy was coalesced: the followers were not matched while the leader mapped"; exit 1; }
 [ -n "${digest[none]}" ] && [ "${digest[none]}" = "${digest[256kbit]}" ] ||
   { echo "FAIL: the leader's map differs with the cap (${digest[none]} vs ${digest[256kbit]})"; exit 1; }
 python3 - "${rate[none]}" "${rate[256kbit]}" <<'PY'

@@ -17,11 +17,13 @@
 # The leader maps at full speed (--rate 0); its mapping rate (scans per second of the SLAM
 # loop, publishing included) and publishing figures are printed from its stats.json.
 #
-# usage: deploy_netns_test.sh BIN_DIR LOG DOMAIN lan|wifi [LOSS] [RATE]
+# usage: deploy_netns_test.sh BIN_DIR LOG DOMAIN lan|wifi [LOSS] [RATE] [ORDER]
 #   RATE: tc rate of every link in wifi mode (default 2mbit), "none" for no cap.
+#   ORDER: leader-first (default) or followers-first: the followers 2 s before the leader, so
+#          that they are matched while it maps (its 600 scans take only a few seconds).
 # Exit 77 (skipped) without root, network namespaces, tc or nft.
 set -euo pipefail
-bin=$1 log=$2 domain=$3 mode=$4 loss=${5:-10} rate=${6:-2mbit}
+bin=$1 log=$2 domain=$3 mode=$4 loss=${5:-10} rate=${6:-2mbit} order=${7:-leader-first}
 here=$(cd "$(dirname "$0")" && pwd)
 deploy=$(cd "$here/../../deploy" && pwd)
 testbed=$deploy/netns/testbed.sh
@@ -166,18 +168,26 @@ print(f"leader: {s['scans']} scans in {s['wall_s']:.2f} s of mapping, "
       f"{s['scans'] / s['wall_s']:.1f} scans/s; published {s['dds']['bytes_total'] / 1e3:.0f} kB "
       f"({s['dds']['tiles_published']} tiles, {s['dds']['deltas_published']} deltas) in "
       f"{p['rounds']} rounds, {p['coalesced']} of {p['tiles_handed_over']} tile copies "
-      f"coalesced, hand-over {p['handover_s']:.3f} s")
+      f"coalesced, hand-over {p['handover_s']:.3f} s, encoding {p['encode_s']:.3f} s, "
+      f"waiting for acknowledgments {p['ack_wait_s']:.1f} s, longest wait {p['max_wait_s']:.2f} s")
 PY
 }
 t0=$(date +%s%N)
 elapsed() { echo "$((($(date +%s%N) - t0) / 10000000))" | sed -E 's/(..)$/.\1/'; }
 [ "$mode" = lan ] && "$testbed" cut "$run" 3
-start 1 leader leader
-pid_leader=${pids[-1]}
+start_leader() {
+  start 1 leader leader
+  pid_leader=${pids[-1]}
+}
+[ "$order" = followers-first ] || start_leader
 start 2 follower follower-a
 pid_a=${pids[-1]}
 start 3 follower follower-b
 pid_b=${pids[-1]}
+if [ "$order" = followers-first ]; then
+  sleep 2
+  start_leader
+fi
 
 ended=0
 for _ in $(seq 1 1000); do
