@@ -54,7 +54,8 @@ nlohmann::json publisher_json(const PublishStats& p) {
           {"write_s", p.write_s},
           {"ack_wait_s", p.ack_wait_s},
           {"ack_timeouts", p.ack_timeouts},
-          {"max_wait_s", p.max_wait_s}};
+          {"max_wait_s", p.max_wait_s},
+          {"mid_round_updates", p.mid_round_updates}};
 }
 
 /// stats.json "dds": what map sharing sent, against republishing the whole map; logs a summary.
@@ -473,10 +474,10 @@ int LeaderApp::serve_map() {
   using Clock = std::chrono::steady_clock;
   const auto start = Clock::now();
   publisher_->republish_all(served_->map);  // every tile whole in the first publish
-  const std::size_t tiles = publish_served(true, true);
+  const std::size_t handed_over = publish_served(true, true);
   spdlog::info(
       "published map '{}' epoch {}: {} tiles, complete; serving it {}", *o_.map_id, *o_.epoch,
-      tiles,
+      handed_over,
       o_.linger < 0 ? std::string("until stopped (Ctrl-C)") : fmt::format("for {} s", o_.linger));
   int code = app::kExitOk;
   try {

@@ -158,7 +158,14 @@ void MapPublisher::write_round(Round& round) {
     return ok;
   };
   std::uint64_t tiles = 0, deltas = 0;
+  auto last_pose = Clock::now();
   for (mapshare::TileMessage& t : out) {
+    // On a slow link a round takes seconds (writes wait for the interface): the newest pose
+    // and summary handed over meanwhile go out between its tiles, not after them.
+    if (Clock::now() - last_pose >= kPoseEvery) {
+      write_newest_pose_and_meta();
+      last_pose = Clock::now();
+    }
     if (t.is_delta()) {
       if (write_parts(deltas_, dds::delta_to_msgs(std::move(t)))) ++deltas;
     } else if (write_parts(tiles_, dds::tile_to_msgs(std::move(t)))) {
@@ -171,6 +178,19 @@ void MapPublisher::write_round(Round& round) {
   if (joined) ++stats_.joiner_refreshes;
   stats_.encode_s += std::chrono::duration<double>(t1 - t0).count();
   stats_.write_s += seconds_since(t1);
+}
+
+void MapPublisher::write_newest_pose_and_meta() {
+  std::optional<msg::RobotPose> pose;
+  std::optional<msg::MapMeta> meta;
+  {
+    std::lock_guard lock(mutex_);
+    pose = std::exchange(next_.pose, std::nullopt);
+    meta = std::exchange(next_.meta, std::nullopt);
+    if (pose || meta) ++stats_.mid_round_updates;
+  }
+  if (meta) meta_.write(*meta);
+  if (pose) pose_.write(*pose);
 }
 
 void MapPublisher::wait_acknowledged() {

@@ -5,7 +5,9 @@
 // pose with the newest. A publisher thread of its own takes everything waiting in rounds: it
 // writes the summary and the pose first, then encodes the tiles (mapshare::TileSender: whole or
 // as deltas against what it sent last, so coalesced versions make one exact delta) and writes
-// the whole tiles before the deltas. After a round it waits until the matched readers
+// the whole tiles before the deltas; a round that takes long (the writes wait for a slow link)
+// is interleaved with the newest pose and summary every kPoseEvery. After a round it waits until
+// the matched readers
 // acknowledged it (at most kAckTimeout) before it takes the next: on a slow link the rounds
 // get longer and fewer, the queue coalesces, and the mapping thread never waits for the
 // network (docs/faults.md, "Publishing never blocks mapping"). It keeps the byte counts that
@@ -54,6 +56,8 @@ struct PublishStats {
   double ack_wait_s = 0.0;         ///< publisher thread: waiting for acknowledgments after rounds
   std::uint64_t ack_timeouts = 0;  ///< rounds not acknowledged within kAckTimeout
   double max_wait_s = 0.0;  ///< longest a hand-over waited before the publisher thread took it
+  /// Newer poses and summaries written between the tiles of a long round (every kPoseEvery).
+  std::uint64_t mid_round_updates = 0;
 };
 
 class MapPublisher {
@@ -61,6 +65,9 @@ class MapPublisher {
   /// After a round, the publisher thread waits at most this long for acknowledgments (a
   /// follower that died stays matched until its lease ends).
   static constexpr std::chrono::milliseconds kAckTimeout{2000};
+  /// During a round that takes longer, the newest pose and summary handed over are written
+  /// between its tiles this often.
+  static constexpr std::chrono::milliseconds kPoseEvery{500};
 
   /// Creates the tile, delta, summary and pose writers on `node` (which must outlive this
   /// object); the pose writer in the robot's partition (docs/security.md); then starts the
@@ -111,6 +118,8 @@ class MapPublisher {
   void run();
   /// Summary and pose, then the tiles whole, then the deltas.
   void write_round(Round& round);
+  /// Takes the pose and summary waiting in next_, if any, and writes them.
+  void write_newest_pose_and_meta();
   /// After a round: until the readers acknowledged it, kAckTimeout passed or stop.
   void wait_acknowledged();
   /// Copies the writers' byte and failure counts into stats_ (caller holds mutex_).

@@ -19,8 +19,8 @@
 #
 # usage: deploy_netns_test.sh BIN_DIR LOG DOMAIN lan|wifi [LOSS] [RATE] [ORDER]
 #   RATE: tc rate of every link in wifi mode (default 2mbit), "none" for no cap.
-#   ORDER: leader-first (default) or followers-first: the followers 2 s before the leader, so
-#          that they are matched while it maps (its 600 scans take only a few seconds).
+#   ORDER: leader-first (default) or followers-first: the leader once both followers have joined
+#          DDS, so that they are matched while it maps (its 600 scans take a few seconds).
 # Exit 77 (skipped) without root, network namespaces, tc or nft.
 set -euo pipefail
 bin=$1 log=$2 domain=$3 mode=$4 loss=${5:-10} rate=${6:-2mbit} order=${7:-leader-first}
@@ -185,7 +185,10 @@ pid_a=${pids[-1]}
 start 3 follower follower-b
 pid_b=${pids[-1]}
 if [ "$order" = followers-first ]; then
-  sleep 2
+  for _ in $(seq 1 300); do  # both followers have joined DDS
+    grep -q "following map" "$work/follower-a.log" && grep -q "following map" "$work/follower-b.log" && break
+    sleep 0.1
+  done
   start_leader
 fi
 
