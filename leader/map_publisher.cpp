@@ -137,6 +137,16 @@ void MapPublisher::write_round(Round& round) {
   const bool joined = readers > tile_readers_;
   tile_readers_ = readers;
   const auto t0 = Clock::now();
+  std::vector<mapshare::TileMessage> out = encode(round, joined);
+  const auto t1 = Clock::now();
+  write_tiles(out);
+  std::lock_guard lock(mutex_);
+  if (joined) ++stats_.joiner_refreshes;
+  stats_.encode_s += std::chrono::duration<double>(t1 - t0).count();
+  stats_.write_s += seconds_since(t1);
+}
+
+std::vector<mapshare::TileMessage> MapPublisher::encode(const Round& round, bool joined) {
   std::vector<mapshare::TileMessage> out;
   for (const mapshare::TileCopy& t : round.tiles) {
     auto m = sender_.send(round.layout, t.counters(), round.stamp, round.complete, t.stamp_ns);
@@ -149,7 +159,10 @@ void MapPublisher::write_round(Round& round) {
   // Whole tiles ahead of the deltas: they are what a follower that missed a delta waits for.
   std::stable_partition(out.begin(), out.end(),
                         [](const mapshare::TileMessage& m) { return !m.is_delta(); });
-  const auto t1 = Clock::now();
+  return out;
+}
+
+void MapPublisher::write_tiles(std::vector<mapshare::TileMessage>& out) {
   // Each tile and delta in parts that fit in one RTPS message (dds::kTilePartBytes): Fast DDS
   // never fragments them (docs/faults.md, "Fragmented tiles and the Fast DDS GAP bug").
   const auto write_parts = [](auto& writer, auto parts) {
@@ -175,9 +188,6 @@ void MapPublisher::write_round(Round& round) {
   std::lock_guard lock(mutex_);
   stats_.tiles += tiles;
   stats_.deltas += deltas;
-  if (joined) ++stats_.joiner_refreshes;
-  stats_.encode_s += std::chrono::duration<double>(t1 - t0).count();
-  stats_.write_s += seconds_since(t1);
 }
 
 void MapPublisher::write_newest_pose_and_meta() {

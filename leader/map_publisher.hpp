@@ -1,17 +1,16 @@
 #pragma once
 // The leader's map-sharing transport. The mapping thread only hands over what changed: publish()
 // copies the counters of the tiles changed since the last call into a queue that coalesces
-// (mapshare::TileQueue: one entry per tile, the newest) and replaces the waiting summary and
-// pose with the newest. A publisher thread of its own takes everything waiting in rounds: it
-// writes the summary and the pose first, then encodes the tiles (mapshare::TileSender: whole or
-// as deltas against what it sent last, so coalesced versions make one exact delta) and writes
-// the whole tiles before the deltas; a round that takes long (the writes wait for a slow link)
-// is interleaved with the newest pose and summary every kPoseEvery. After a round it waits until
-// the matched readers
-// acknowledged it (at most kAckTimeout) before it takes the next: on a slow link the rounds
-// get longer and fewer, the queue coalesces, and the mapping thread never waits for the
-// network (docs/faults.md, "Publishing never blocks mapping"). It keeps the byte counts that
-// show what tiles save over republishing the whole map (the ROS `map` topic habit).
+// (mapshare::TileQueue: one entry per tile, the newest) and replaces the waiting summary and pose
+// with the newest. A publisher thread of its own takes everything waiting in rounds: it writes the
+// summary and the pose first, then encodes the tiles (mapshare::TileSender: whole or as deltas
+// against what it sent last, so coalesced versions make one exact delta) and writes the whole tiles
+// before the deltas; a round that takes long (the writes wait for a slow link) is interleaved with
+// the newest pose and summary every kPoseEvery. After a round it waits until the matched readers
+// acknowledged it (at most kAckTimeout) before it takes the next: on a slow link the rounds get
+// longer and fewer, the queue coalesces, and the mapping thread never waits for the network
+// (docs/faults.md, "Publishing never blocks mapping"). It keeps the byte counts that show what
+// tiles save over republishing the whole map (the ROS `map` topic habit).
 
 #include <chrono>
 #include <condition_variable>
@@ -118,6 +117,10 @@ class MapPublisher {
   void run();
   /// Summary and pose, then the tiles whole, then the deltas.
   void write_round(Round& round);
+  /// The round's messages (TileSender), whole tiles first; `joined`: a tile reader joined.
+  std::vector<mapshare::TileMessage> encode(const Round& round, bool joined);
+  /// Writes them in parts, with the newest pose and summary every kPoseEvery.
+  void write_tiles(std::vector<mapshare::TileMessage>& out);
   /// Takes the pose and summary waiting in next_, if any, and writes them.
   void write_newest_pose_and_meta();
   /// After a round: until the readers acknowledged it, kAckTimeout passed or stop.
