@@ -41,6 +41,23 @@ std::string changed_params(const std::string& saved_json, const nlohmann::json& 
   return out;
 }
 
+/// stats.json "dds" "publisher": the hand-over from the mapping thread to the publisher thread
+/// (leader/map_publisher.hpp). handover_s is what publishing cost the mapping thread; encode_s
+/// and write_s what the publisher thread spent instead.
+nlohmann::json publisher_json(const PublishStats& p) {
+  return {{"rounds", p.rounds},
+          {"tiles_handed_over", p.tiles_handed_over},
+          {"coalesced", p.coalesced},
+          {"queue_high_water", p.queue_high_water},
+          {"handover_s", p.handover_s},
+          {"encode_s", p.encode_s},
+          {"write_s", p.write_s},
+          {"ack_wait_s", p.ack_wait_s},
+          {"ack_timeouts", p.ack_timeouts},
+          {"max_wait_s", p.max_wait_s},
+          {"mid_round_updates", p.mid_round_updates}};
+}
+
 /// stats.json "dds": what map sharing sent, against republishing the whole map; logs a summary.
 nlohmann::json dds_stats(const PublishStats& p, const LeaderOptions& o, double input_s) {
   const std::uint64_t sent_bytes = p.tile_bytes + p.delta_bytes + p.meta_bytes + p.pose_bytes;
@@ -52,6 +69,12 @@ nlohmann::json dds_stats(const PublishStats& p, const LeaderOptions& o, double i
       "published {} tiles and {} tile deltas, {:.1f} kB in all ({:.0f} B per log second); the "
       "whole map at every publish would be {:.1f} kB ({:.1f}x more)",
       p.tiles, p.deltas, sent / 1e3, per_s, full / 1e3, ratio);
+  spdlog::info(
+      "publisher thread: {} rounds for {} hand-overs, {} of {} tile copies coalesced (at most {} "
+      "waiting); mapping thread {:.3f} s handing over, publisher {:.3f} s encoding, {:.3f} s "
+      "writing, {:.1f} s waiting for acknowledgments",
+      p.rounds, p.publishes, p.coalesced, p.tiles_handed_over, p.queue_high_water, p.handover_s,
+      p.encode_s, p.write_s, p.ack_wait_s);
   return {
       {"domain", o.domain},
       {"map_id", *o.map_id},
@@ -73,6 +96,7 @@ nlohmann::json dds_stats(const PublishStats& p, const LeaderOptions& o, double i
       {"full_map_over_tiles", ratio},
       {"write_failures", p.write_failures},
       {"joiner_refreshes", p.joiner_refreshes},
+      {"publisher", publisher_json(p)},
   };
 }
 
@@ -384,6 +408,11 @@ nlohmann::json LeaderApp::extra_stats(const SlamRunStats& stats) {
   extra["parameters"] = params_json(o_);
   if (publisher_) {
     publish(!stats.interrupted, 0.0f);
+    // The figures include the last round (bounded: a slow link may still be acknowledging the
+    // round before it, and stopping stays quick).
+    if (!publisher_->drain(std::chrono::seconds(stats.interrupted ? 1 : 5))) {
+      spdlog::warn("the publisher thread has not written the last publish yet");
+    }
     extra["dds"] =
         dds_stats(publisher_->stats(), o_, first_stamp_ ? last_stamp_ - *first_stamp_ : 0);
   }
@@ -431,22 +460,24 @@ void LeaderApp::serve(const SlamRunStats& stats) {
   }
 }
 
-void LeaderApp::publish_served(bool tiles, bool ros) {
+std::size_t LeaderApp::publish_served(bool tiles, bool ros) {
   const double now = static_cast<double>(realtime_ns()) * 1e-9;
   const auto scans =
       static_cast<std::uint32_t>(served_->checkpoint ? served_->checkpoint->scans : 0);
-  if (tiles) publisher_->publish_map(served_->map, now, true, scans, params_json_);
+  std::size_t handed_over = 0;
+  if (tiles) handed_over = publisher_->publish_map(served_->map, now, true, scans, params_json_);
   if (ros && ros_map_) ros_map_->publish(served_->map, now, true);
+  return handed_over;
 }
 
 int LeaderApp::serve_map() {
   using Clock = std::chrono::steady_clock;
   const auto start = Clock::now();
   publisher_->republish_all(served_->map);  // every tile whole in the first publish
-  publish_served(true, true);
+  const std::size_t handed_over = publish_served(true, true);
   spdlog::info(
       "published map '{}' epoch {}: {} tiles, complete; serving it {}", *o_.map_id, *o_.epoch,
-      publisher_->stats().tiles,
+      handed_over,
       o_.linger < 0 ? std::string("until stopped (Ctrl-C)") : fmt::format("for {} s", o_.linger));
   int code = app::kExitOk;
   try {
@@ -477,7 +508,7 @@ int LeaderApp::serve_map() {
   if (!publisher_->flush(std::chrono::seconds(2))) {
     spdlog::warn("not every follower acknowledged the last samples");
   }
-  const PublishStats& p = publisher_->stats();
+  const PublishStats p = publisher_->stats();
   spdlog::info("served the map for {:.1f} s ({}): {} publishes, {} tiles, {:.1f} kB", served_s,
                ended, p.publishes, p.tiles, static_cast<double>(p.tile_bytes + p.meta_bytes) / 1e3);
   try {
@@ -492,7 +523,7 @@ int LeaderApp::serve_map() {
 nlohmann::json LeaderApp::served_stats(double served_s, const char* ended) const {
   const ServedMap& m = *served_;
   const CellClasses cells = cell_classes(m.map);
-  const PublishStats& p = publisher_->stats();
+  const PublishStats p = publisher_->stats();
   nlohmann::json j = {
       {"source", m.path},
       {"kind", to_string(m.kind)},

@@ -56,8 +56,9 @@ class LeaderApp {
   void load_map();
   /// --map: publishes the saved map at once and serves it; returns the exit code.
   int serve_map();
-  /// --map: publishes the tiles that need it and the summary (`tiles`), /map (`ros`, --ros).
-  void publish_served(bool tiles, bool ros);
+  /// --map: publishes the tiles that need it and the summary (`tiles`), /map (`ros`, --ros);
+  /// returns the number of tiles handed over.
+  std::size_t publish_served(bool tiles, bool ros);
   /// --map: stats.json of the map server.
   nlohmann::json served_stats(double served_s, const char* ended) const;
   void read_log();

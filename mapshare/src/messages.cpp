@@ -17,7 +17,7 @@ const Tile& tile_or_throw(const GridMap& map, TileKey key) {
 }
 
 /// Identity, key, version and layout of `tile`, and `hit`/`err` encoded as the payload.
-TileMessage tile_message(const GridMap& map, const Tile& tile, const MapIdentity& id,
+TileMessage tile_message(const TileLayout& layout, const TileCounters& tile, const MapIdentity& id,
                          std::span<const std::uint32_t> hit, std::span<const std::uint32_t> err,
                          TileEncoding encoding, std::uint64_t stamp_ns) {
   TileMessage m;
@@ -26,9 +26,9 @@ TileMessage tile_message(const GridMap& map, const Tile& tile, const MapIdentity
   m.ty = tile.key.ty;
   m.epoch = id.epoch;
   m.version = tile.version;
-  m.cell_size = static_cast<float>(map.cell_size());
-  m.tile_edge = static_cast<std::uint16_t>(map.tile_edge());
-  m.cells = static_cast<std::uint32_t>(map.cells_per_tile());
+  m.cell_size = layout.cell_size;
+  m.tile_edge = layout.tile_edge;
+  m.cells = layout.cells;
   EncodedTile e = encode_tile(hit, err, encoding);
   m.encoding = static_cast<std::uint8_t>(e.encoding);
   m.payload = std::move(e.payload);
@@ -37,9 +37,20 @@ TileMessage tile_message(const GridMap& map, const Tile& tile, const MapIdentity
 }
 }  // namespace
 
+TileLayout tile_layout(const GridMap& map) {
+  return {static_cast<float>(map.cell_size()), static_cast<std::uint16_t>(map.tile_edge()),
+          static_cast<std::uint32_t>(map.cells_per_tile())};
+}
+
+TileMessage whole_tile_message(const TileLayout& layout, const TileCounters& tile,
+                               const MapIdentity& id, TileEncoding encoding,
+                               std::uint64_t stamp_ns) {
+  return tile_message(layout, tile, id, tile.hit, tile.err, encoding, stamp_ns);
+}
+
 TileMessage whole_tile_message(const GridMap& map, const Tile& tile, const MapIdentity& id,
                                TileEncoding encoding, std::uint64_t stamp_ns) {
-  return tile_message(map, tile, id, tile.hit, tile.err, encoding, stamp_ns);
+  return whole_tile_message(tile_layout(map), counters_of(tile), id, encoding, stamp_ns);
 }
 
 TileMessage whole_tile_message(const GridMap& map, TileKey key, const MapIdentity& id,
@@ -59,6 +70,14 @@ TileMessage delta_tile_message(const GridMap& map, const Tile& tile, std::uint64
                                std::span<const std::uint32_t> base_hit,
                                std::span<const std::uint32_t> base_err, const MapIdentity& id,
                                TileEncoding encoding, std::uint64_t stamp_ns) {
+  return delta_tile_message(tile_layout(map), counters_of(tile), base_version, base_hit, base_err,
+                            id, encoding, stamp_ns);
+}
+
+TileMessage delta_tile_message(const TileLayout& layout, const TileCounters& tile,
+                               std::uint64_t base_version, std::span<const std::uint32_t> base_hit,
+                               std::span<const std::uint32_t> base_err, const MapIdentity& id,
+                               TileEncoding encoding, std::uint64_t stamp_ns) {
   if (base_hit.size() != tile.hit.size() || base_err.size() != tile.err.size()) {
     throw std::invalid_argument("delta base has " + std::to_string(base_hit.size()) +
                                 " cells, the tile " + std::to_string(tile.hit.size()));
@@ -72,7 +91,7 @@ TileMessage delta_tile_message(const GridMap& map, const Tile& tile, std::uint64
     dhit[i] = tile.hit[i] - base_hit[i];  // modulo 2^32: counters may also decrease
     derr[i] = tile.err[i] - base_err[i];
   }
-  TileMessage m = tile_message(map, tile, id, dhit, derr, encoding, stamp_ns);
+  TileMessage m = tile_message(layout, tile, id, dhit, derr, encoding, stamp_ns);
   m.base_version = base_version;
   return m;
 }

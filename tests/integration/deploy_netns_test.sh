@@ -14,10 +14,16 @@
 # Both followers must end with the leader's map (same map.digest), declare a first pose within
 # 0.3 m of the leader's pose for the same scan, and use no shared memory.
 #
-# usage: deploy_netns_test.sh BIN_DIR LOG DOMAIN lan|wifi [LOSS] [RATE]
+# The leader maps at full speed (--rate 0); its mapping rate (scans per second of the SLAM
+# loop, publishing included) and publishing figures are printed from its stats.json.
+#
+# usage: deploy_netns_test.sh BIN_DIR LOG DOMAIN lan|wifi [LOSS] [RATE] [ORDER]
+#   RATE: tc rate of every link in wifi mode (default 2mbit), "none" for no cap.
+#   ORDER: leader-first (default) or followers-first: the leader once both followers have joined
+#          DDS, so that they are matched while it maps (its 600 scans take a few seconds).
 # Exit 77 (skipped) without root, network namespaces, tc or nft.
 set -euo pipefail
-bin=$1 log=$2 domain=$3 mode=$4 loss=${5:-10} rate=${6:-2mbit}
+bin=$1 log=$2 domain=$3 mode=$4 loss=${5:-10} rate=${6:-2mbit} order=${7:-leader-first}
 here=$(cd "$(dirname "$0")" && pwd)
 deploy=$(cd "$here/../../deploy" && pwd)
 testbed=$deploy/netns/testbed.sh
@@ -43,7 +49,10 @@ trap 'cleanup; "$testbed" down "$run"' EXIT
 # --- hosts: 1 = leader, 2 = follower A, 3 = follower B
 case $mode in
   lan) netem=() ;;
-  wifi) netem=(--loss "$loss" --rate "$rate") ;;
+  wifi)
+    netem=(--loss "$loss")
+    [ "$rate" = none ] || netem+=(--rate "$rate")
+    ;;
   *) fail "mode must be lan or wifi" ;;
 esac
 rc=0
@@ -148,15 +157,40 @@ shm_check() {
   done
 }
 
+# leader_figures: the leader's mapping rate and publishing figures, from its stats.json.
+leader_figures() {
+  python3 - "$work" <<'PY'
+import json, sys
+work = sys.argv[1]
+s = json.load(open(f"{work}/leader/stats.json"))
+p = s["dds"]["publisher"]
+print(f"leader: {s['scans']} scans in {s['wall_s']:.2f} s of mapping, "
+      f"{s['scans'] / s['wall_s']:.1f} scans/s; published {s['dds']['bytes_total'] / 1e3:.0f} kB "
+      f"({s['dds']['tiles_published']} tiles, {s['dds']['deltas_published']} deltas) in "
+      f"{p['rounds']} rounds, {p['coalesced']} of {p['tiles_handed_over']} tile copies "
+      f"coalesced, hand-over {p['handover_s']:.3f} s, encoding {p['encode_s']:.3f} s, "
+      f"waiting for acknowledgments {p['ack_wait_s']:.1f} s, longest wait {p['max_wait_s']:.2f} s")
+PY
+}
 t0=$(date +%s%N)
 elapsed() { echo "$((($(date +%s%N) - t0) / 10000000))" | sed -E 's/(..)$/.\1/'; }
 [ "$mode" = lan ] && "$testbed" cut "$run" 3
-start 1 leader leader
-pid_leader=${pids[-1]}
+start_leader() {
+  start 1 leader leader
+  pid_leader=${pids[-1]}
+}
+[ "$order" = followers-first ] || start_leader
 start 2 follower follower-a
 pid_a=${pids[-1]}
 start 3 follower follower-b
 pid_b=${pids[-1]}
+if [ "$order" = followers-first ]; then
+  for _ in $(seq 1 300); do  # both followers have joined DDS
+    grep -q "following map" "$work/follower-a.log" && grep -q "following map" "$work/follower-b.log" && break
+    sleep 0.1
+  done
+  start_leader
+fi
 
 ended=0
 for _ in $(seq 1 1000); do
@@ -165,6 +199,8 @@ for _ in $(seq 1 1000); do
   if [ $ended = 0 ] && grep -q "log ended" "$work/leader.log"; then
     ended=1
     echo "leader: log ended after $(elapsed) s"
+    leader_figures || fail "no leader figures"
+    echo "leader map digest: $(sha256sum <"$work/leader/map.digest" | cut -c1-16)"
     if [ "$mode" = lan ]; then "$testbed" heal "$run" 3; fi
   fi
   kill -0 "$pid_a" 2>/dev/null || kill -0 "$pid_b" 2>/dev/null || break

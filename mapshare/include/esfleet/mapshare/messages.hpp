@@ -88,6 +88,39 @@ constexpr std::size_t max_payload_bytes(std::size_t cells) {
 /// samples before queueing them.
 inline constexpr std::size_t kMaxTilePayloadBytes = max_payload_bytes(kMaxTileCells);
 
+/// What a tile message takes of the map besides the tile: the layout.
+struct TileLayout {
+  float cell_size = 0.0f;       ///< metres per cell edge
+  std::uint16_t tile_edge = 0;  ///< cells per tile edge
+  std::uint32_t cells = 0;      ///< tile_edge^2
+};
+TileLayout tile_layout(const GridMap& map);
+
+/// The counters of one tile at one version, viewed: a Tile of a map, or a copy of one that a
+/// publisher thread encodes while the map moves on (leader/map_publisher.hpp).
+struct TileCounters {
+  TileKey key;
+  std::uint64_t version = 0;
+  std::span<const std::uint32_t> hit;
+  std::span<const std::uint32_t> err;
+};
+inline TileCounters counters_of(const Tile& tile) {
+  return {tile.key, tile.version, tile.hit, tile.err};
+}
+
+/// `tile` whole, in `layout`, its payload encoded with `encoding`; stamped `stamp_ns`.
+TileMessage whole_tile_message(const TileLayout& layout, const TileCounters& tile,
+                               const MapIdentity& id, TileEncoding encoding,
+                               std::uint64_t stamp_ns);
+/// `tile` as a delta against the counters `base_hit`, `base_err` it had at `base_version`
+/// (< tile.version): the per-cell differences now - base (modulo 2^32). Throws
+/// std::invalid_argument for base spans of the wrong size or a base version not older than the
+/// tile's.
+TileMessage delta_tile_message(const TileLayout& layout, const TileCounters& tile,
+                               std::uint64_t base_version, std::span<const std::uint32_t> base_hit,
+                               std::span<const std::uint32_t> base_err, const MapIdentity& id,
+                               TileEncoding encoding, std::uint64_t stamp_ns);
+
 /// `tile` (one of `map`'s: its layout comes from the map) whole, its payload encoded with
 /// `encoding`; stamped `stamp_ns`.
 TileMessage whole_tile_message(const GridMap& map, const Tile& tile, const MapIdentity& id,

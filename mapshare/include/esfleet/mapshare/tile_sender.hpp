@@ -16,6 +16,7 @@
 
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -58,6 +59,24 @@ class TileSender {
   /// whole (a resumed leader superseding what the dead one sent).
   void republish_all(GridMap& map);
 
+  // The same step in pieces, for a publisher that works from copies of the changed tiles
+  // (leader/map_publisher.hpp) while the map moves on. publish() is send() for each changed
+  // tile, then refresh_whole() when complete or a reader joined, then the summary.
+
+  /// The message for `tile` (its newest counters; `layout` of its map), whole or as a delta
+  /// against the version sent last (see the file comment), stamped `stamp_ns`; nothing when
+  /// that version was sent already. Several versions handed over between two calls become one
+  /// delta (or one whole tile): the base is always what the followers were sent.
+  std::optional<TileMessage> send(const TileLayout& layout, const TileCounters& tile, double stamp,
+                                  bool complete, std::uint64_t stamp_ns);
+  /// Appends a whole copy of every tile sent whose whole copy is not the newest version sent
+  /// (a complete map, or a tile reader joined).
+  void refresh_whole(const TileLayout& layout, double stamp, std::uint64_t now_ns,
+                     std::vector<TileMessage>& out);
+  /// Forgets what was sent: every tile goes whole when it is next sent (republish_all without
+  /// the map).
+  void forget_sent() { sent_.clear(); }
+
   const MapIdentity& id() const { return id_; }
 
  private:
@@ -71,8 +90,8 @@ class TileSender {
     double full_stamp = 0.0;              ///< scan time of that whole tile
   };
   /// The message for `tile` whole or as a delta against `sent`; updates `sent`.
-  TileMessage make(const GridMap& map, const Tile& tile, Sent& sent, bool whole, double stamp,
-                   std::uint64_t now_ns);
+  TileMessage make(const TileLayout& layout, const TileCounters& tile, Sent& sent, bool whole,
+                   double stamp, std::uint64_t now_ns);
 
   MapIdentity id_;
   TileEncoding encoding_;
