@@ -7,9 +7,11 @@
 // counts what became of them (mapshare::ReceiveStats), logs each kind of drop once per sending
 // writer and measures the tile latency (leader publish -> applied here).
 //
-// Hostile peers: a sample whose payload exceeds mapshare::kMaxTilePayloadBytes is not queued
-// (only its key, to count and log it), so the queue holds at most plausible tiles; everything
-// else is judged by MapReplica. Rejected and stale samples never change the map.
+// Hostile peers: Fast DDS refuses samples longer than the wire types' bounds before they reach
+// the callbacks (dds/src/endpoints.cpp); a part whose payload still exceeds dds::kTilePartBytes
+// is not queued (only its key, to count and log it), so the queue holds at most plausible parts;
+// everything else is judged by TilePartAssembler and MapReplica. Rejected and stale samples
+// never change the map.
 
 #include <chrono>
 #include <condition_variable>
@@ -68,7 +70,7 @@ class MapSubscriber {
   struct Received {
     std::variant<msg::MapTile, msg::MapTileDelta, msg::MapMeta> sample;
     std::string writer;
-    /// Payload size of a sample dropped in the callback for exceeding kMaxTilePayloadBytes
+    /// Payload size of a part dropped in the callback for exceeding dds::kTilePartBytes
     /// (`sample` then holds its key only); 0 otherwise.
     std::size_t oversized = 0;
   };
