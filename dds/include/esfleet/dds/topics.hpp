@@ -48,16 +48,17 @@ inline constexpr std::string_view kScanTopic = "esfleet/robots/scan";
 inline constexpr std::string_view kTruthTopic = "esfleet/sim/truth";
 
 /// Keys (map_id, tx, ty, part) a tile or delta endpoint holds at once (its max_instances):
-/// 4096 tiles of up to 4 parts (64-cell tiles at 5 cm are 3.2 m square: 4096 cover
-/// 200 m x 200 m). A real map needs far fewer: the whole MIT CSAIL log makes TODO tiles in TODO
-/// part keys, fr079 TODO in TODO (MED zlib). Every key stays an instance for as long as its
-/// writer lives (KEEP_LAST keeps the newest sample per key), so this, not the run's length,
-/// bounds what a peer flooding new keys costs a follower: about TODO bytes per key with the
-/// follower's own bookkeeping (dds::TilePartAssembler), TODO MB for both topics at the bound,
-/// within the clean peak of a follower (docs/fuzzing.md, "Memory"). The price: once a flood has
-/// filled it, Fast DDS refuses the leader's new keys for good (a sample rejected by the instance
-/// limit is never resent) until the flooding writer leaves and the follower rejoins; only DDS
-/// Security keeps such a peer out.
+/// about 4096 tiles of 4 parts (64-cell tiles at 5 cm are 3.2 m square: 4096 cover
+/// 200 m x 200 m). A real map needs far fewer: the whole MIT CSAIL log (odometry on) makes 236
+/// tiles in 532 part keys, fr079 69 tiles in 266 (MED zlib; rogue_peer --passive), 30 and 60
+/// times less. Every key stays an instance for as long as its writer lives (KEEP_LAST keeps the
+/// newest sample per key), so this, not the run's length, bounds what a peer flooding new keys
+/// costs a follower: about 0.6 kB per key with the follower's own bookkeeping
+/// (dds::TilePartAssembler), 19 MB for both topics at the bound, less than a clean follower's
+/// peak (docs/fuzzing.md, "Memory"). The price: once a flood has filled it, Fast DDS refuses
+/// the leader's new keys for good (a sample rejected by the instance limit is never resent)
+/// until the flooding writer leaves and the follower rejoins; only DDS Security keeps such a
+/// peer out.
 inline constexpr std::int32_t kMaxTileKeys = 16384;
 /// Maps (map_id keys) a summary endpoint holds: one leader per map, a few per domain.
 inline constexpr std::int32_t kMaxMaps = 64;
