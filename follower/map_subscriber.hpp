@@ -65,6 +65,11 @@ class MapSubscriber {
   const mapshare::MapReplica& replica() const { return replica_; }
   const FollowStats& stats() const { return stats_; }
   int matched_leaders() const { return tiles_.matched_writers(); }
+  /// Map samples dropped for another protocol version (dds::Reader logs each writer once).
+  std::uint64_t protocol_mismatches() const {
+    return tiles_.protocol_mismatches() + deltas_.protocol_mismatches() +
+           meta_.protocol_mismatches();
+  }
 
  private:
   struct Received {
