@@ -238,6 +238,12 @@ void FollowerApp::warn_no_map() const {
         "'Shared memory and killed processes'.)",
         kNoMapWarnS, o_.domain, o_.profile.empty() ? "" : " with profile " + o_.profile,
         o_.secure.empty() ? "" : " and certificates of the same CA");
+  } else if (const std::uint64_t other = map_->protocol_mismatches(); other > 0) {
+    spdlog::warn(
+        "matched {} leader map writer(s) but in {:.0f} s received only {} sample(s) of another "
+        "esfleet protocol than this follower's {} (the writers are named above): run the same "
+        "esfleet release on the leader and this robot",
+        matched, kNoMapWarnS, other, dds::kProtocolVersion);
   } else {
     spdlog::warn(
         "matched {} leader map writer(s) but received nothing from them in {:.0f} s: "

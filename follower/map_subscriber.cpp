@@ -20,7 +20,10 @@ MapSubscriber::MapSubscriber(dds::Node& node, std::string map_id, GridMapConfig 
 
 template <class Msg>
 void MapSubscriber::push_tile(const Msg& m, const std::string& writer) {
-  if (m.payload().size() <= mapshare::kMaxTilePayloadBytes) {
+  // Fast DDS already refuses samples longer than the type's bound (dds/src/endpoints.cpp), but
+  // a part whose other fields are shorter than theirs can carry a few bytes more than
+  // kTilePartBytes: refused here too, so that every queued part is one the leader could send.
+  if (m.payload().size() <= dds::kTilePartBytes) {
     push({m, writer});
     return;
   }
@@ -59,9 +62,9 @@ void MapSubscriber::handle(Received& r) {
       stats_.count_tile(delta, mapshare::Applied::kRejected);
       log_once(r.writer, kind,
                std::string(what) + " (" + std::to_string(m.tx()) + ", " + std::to_string(m.ty()) +
-                   ") dropped: payload of " + std::to_string(r.oversized) +
-                   " bytes, more than the " + std::to_string(mapshare::kMaxTilePayloadBytes) +
-                   " any tile can need");
+                   ") part dropped: payload of " + std::to_string(r.oversized) +
+                   " bytes, more than the " + std::to_string(dds::kTilePartBytes) +
+                   " a part holds (protocol " + std::to_string(dds::kProtocolVersion) + ")");
     };
     if (const auto* tile = std::get_if<msg::MapTile>(&r.sample)) {
       drop(*tile, false, "tile", "tile");

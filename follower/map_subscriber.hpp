@@ -7,9 +7,11 @@
 // counts what became of them (mapshare::ReceiveStats), logs each kind of drop once per sending
 // writer and measures the tile latency (leader publish -> applied here).
 //
-// Hostile peers: a sample whose payload exceeds mapshare::kMaxTilePayloadBytes is not queued
-// (only its key, to count and log it), so the queue holds at most plausible tiles; everything
-// else is judged by MapReplica. Rejected and stale samples never change the map.
+// Hostile peers: Fast DDS refuses samples longer than the wire types' bounds before they reach
+// the callbacks (dds/src/endpoints.cpp); a part whose payload still exceeds dds::kTilePartBytes
+// is not queued (only its key, to count and log it), so the queue holds at most plausible parts;
+// everything else is judged by TilePartAssembler and MapReplica. Rejected and stale samples
+// never change the map.
 
 #include <chrono>
 #include <condition_variable>
@@ -63,12 +65,17 @@ class MapSubscriber {
   const mapshare::MapReplica& replica() const { return replica_; }
   const FollowStats& stats() const { return stats_; }
   int matched_leaders() const { return tiles_.matched_writers(); }
+  /// Map samples dropped for another protocol version (dds::Reader logs each writer once).
+  std::uint64_t protocol_mismatches() const {
+    return tiles_.protocol_mismatches() + deltas_.protocol_mismatches() +
+           meta_.protocol_mismatches();
+  }
 
  private:
   struct Received {
     std::variant<msg::MapTile, msg::MapTileDelta, msg::MapMeta> sample;
     std::string writer;
-    /// Payload size of a sample dropped in the callback for exceeding kMaxTilePayloadBytes
+    /// Payload size of a part dropped in the callback for exceeding dds::kTilePartBytes
     /// (`sample` then holds its key only); 0 otherwise.
     std::size_t oversized = 0;
   };

@@ -27,6 +27,10 @@ void GridMapConfig::validate() const {
     throw std::invalid_argument("map.max_tile_coord must be in [1, 16384], got " +
                                 std::to_string(max_tile_coord));
   }
+  if (max_tile_span < 1 || max_tile_span > 1 << 15) {
+    throw std::invalid_argument("map.max_tile_span must be in [1, 32768], got " +
+                                std::to_string(max_tile_span));
+  }
 }
 
 GridMap::GridMap(GridMapConfig config) : config_(config) {
@@ -53,7 +57,11 @@ CellIndex GridMap::cell_of(double x, double y) const {
 
 bool GridMap::key_in_range(TileKey k) const {
   const std::int32_t m = config_.max_tile_coord;
-  return k.tx >= -m && k.tx <= m && k.ty >= -m && k.ty <= m;
+  if (k.tx < -m || k.tx > m || k.ty < -m || k.ty > m) return false;
+  if (tiles_.empty()) return true;
+  const std::int64_t span = config_.max_tile_span;
+  return std::int64_t{std::max(box_tx1_, k.tx)} - std::min(box_tx0_, k.tx) < span &&
+         std::int64_t{std::max(box_ty1_, k.ty)} - std::min(box_ty0_, k.ty) < span;
 }
 
 const Tile* GridMap::find_tile(TileKey k) const {
@@ -119,6 +127,13 @@ void GridMap::grow_directory(TileKey k) {
   y0 = std::max(y0, -m);
   x1 = std::min(x1, m);
   y1 = std::min(y1, m);
+  // No wider than max_tile_span: the margin shrinks, the tiles' box (with k, which
+  // key_in_range admitted) always fits.
+  const std::int32_t span = config_.max_tile_span;
+  x0 = std::max(x0, std::max(box_tx1_, k.tx) - span + 1);
+  x1 = std::min(x1, std::min(box_tx0_, k.tx) + span - 1);
+  y0 = std::max(y0, std::max(box_ty1_, k.ty) - span + 1);
+  y1 = std::min(y1, std::min(box_ty0_, k.ty) + span - 1);
   const auto w = static_cast<std::uint32_t>(x1 - x0 + 1);
   const auto h = static_cast<std::uint32_t>(y1 - y0 + 1);
   // Rows are a power of two apart so a look-up computes the slot with a shift.
@@ -183,12 +198,20 @@ Tile* GridMap::tile_for_write(CellIndex c) {
     tile->coarse.emplace_back(n >> (2 * level), kUnknownScore);
   }
   Tile* raw = tile.get();
+  if (tiles_.empty()) {
+    box_tx0_ = box_tx1_ = k.tx;
+    box_ty0_ = box_ty1_ = k.ty;
+  }
   tiles_.emplace(k, std::move(tile));
   if (dx < dir_w_ && dy < dir_h_) {
     set_directory_entry(dir_slot(k), raw);
   } else {
     grow_directory(k);
   }
+  box_tx0_ = std::min(box_tx0_, k.tx);
+  box_ty0_ = std::min(box_ty0_, k.ty);
+  box_tx1_ = std::max(box_tx1_, k.tx);
+  box_ty1_ = std::max(box_ty1_, k.ty);
   return raw;
 }
 
@@ -273,7 +296,9 @@ void GridMap::set_tile(TileKey k, std::uint64_t version, std::span<const std::ui
   }
   if (!key_in_range(k)) {
     throw std::invalid_argument("tile (" + std::to_string(k.tx) + ", " + std::to_string(k.ty) +
-                                ") is outside +-" + std::to_string(config_.max_tile_coord));
+                                ") is outside +-" + std::to_string(config_.max_tile_coord) +
+                                " or makes the tiles span more than " +
+                                std::to_string(config_.max_tile_span));
   }
   Tile* t = tile_for_write(CellIndex{k.tx * config_.tile_edge, k.ty * config_.tile_edge});
   std::copy(hit.begin(), hit.end(), t->hit.begin());

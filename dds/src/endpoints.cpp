@@ -4,9 +4,11 @@
 // headers; the templates are instantiated here for the esfleet message types and the ROS 2 types of
 // ros.hpp only.
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <mutex>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 #include <thread>
@@ -14,6 +16,7 @@
 #include <esfleet/msg/esfleetPubSubTypes.h>
 #include <esfleet/msg/ros2PubSubTypes.h>
 #include <fastdds/rtps/common/InstanceHandle.h>
+#include <spdlog/spdlog.h>
 #include <fastdds/dds/core/status/PublicationMatchedStatus.hpp>
 #include <fastdds/dds/core/status/SubscriptionMatchedStatus.hpp>
 #include <fastdds/dds/publisher/DataWriter.hpp>
@@ -52,6 +55,8 @@ struct Traits<msg::MapTile> : EsfleetTraits {
   static constexpr std::string_view kTopic = kTileTopic;
   static constexpr bool kTransientLocal = true;
   static constexpr std::int32_t kDepth = 1;
+  static constexpr std::int32_t kReaderDepth = 1;
+  static constexpr std::int32_t kMaxInstances = kMaxTileKeys;
 };
 template <>
 struct Traits<msg::MapTileDelta> : EsfleetTraits {
@@ -59,6 +64,11 @@ struct Traits<msg::MapTileDelta> : EsfleetTraits {
   static constexpr std::string_view kTopic = kTileDeltaTopic;
   static constexpr bool kTransientLocal = false;
   static constexpr std::int32_t kDepth = 64;  // a gap in a tile's chain costs a full tile
+  // The reader takes each delta at once and holds one only while a lost packet before it is
+  // repaired (100 ms heartbeats); a tile changes at most once per publish, so 2 per key never
+  // drop one there, and the reader's bound is 2 x kMaxTileKeys samples instead of 64 x.
+  static constexpr std::int32_t kReaderDepth = 2;
+  static constexpr std::int32_t kMaxInstances = kMaxTileKeys;
 };
 template <>
 struct Traits<msg::MapMeta> : EsfleetTraits {
@@ -66,6 +76,8 @@ struct Traits<msg::MapMeta> : EsfleetTraits {
   static constexpr std::string_view kTopic = kMetaTopic;
   static constexpr bool kTransientLocal = true;
   static constexpr std::int32_t kDepth = 1;
+  static constexpr std::int32_t kReaderDepth = 1;
+  static constexpr std::int32_t kMaxInstances = kMaxMaps;
 };
 template <>
 struct Traits<msg::RobotPose> : EsfleetTraits {
@@ -73,6 +85,8 @@ struct Traits<msg::RobotPose> : EsfleetTraits {
   static constexpr std::string_view kTopic = kPoseTopic;
   static constexpr bool kTransientLocal = false;
   static constexpr std::int32_t kDepth = 1;
+  static constexpr std::int32_t kReaderDepth = 1;
+  static constexpr std::int32_t kMaxInstances = kMaxRobots;
 };
 template <>
 struct Traits<msg::LaserScanMsg> : EsfleetTraits {
@@ -80,6 +94,8 @@ struct Traits<msg::LaserScanMsg> : EsfleetTraits {
   static constexpr std::string_view kTopic = kScanTopic;
   static constexpr bool kTransientLocal = false;
   static constexpr std::int32_t kDepth = 50;
+  static constexpr std::int32_t kReaderDepth = 50;
+  static constexpr std::int32_t kMaxInstances = kMaxRobots;
 };
 template <>
 struct Traits<msg::TruthPose> : EsfleetTraits {
@@ -87,6 +103,8 @@ struct Traits<msg::TruthPose> : EsfleetTraits {
   static constexpr std::string_view kTopic = kTruthTopic;
   static constexpr bool kTransientLocal = false;
   static constexpr std::int32_t kDepth = 50;
+  static constexpr std::int32_t kReaderDepth = 50;
+  static constexpr std::int32_t kMaxInstances = kMaxRobots;
 };
 
 template <>
@@ -120,26 +138,43 @@ template <class Msg>
 TopicQos default_endpoint() {
   using T = Traits<Msg>;
   if constexpr (T::kHasProtocol) {
-    return TopicQos{std::string(T::kTopic), T::kReliable, T::kTransientLocal, T::kDepth};
+    return TopicQos{std::string(T::kTopic), T::kReliable,   T::kTransientLocal, T::kDepth,
+                    T::kMaxInstances,       T::kReaderDepth};
   } else {
     throw std::logic_error("esfleet::dds: a ROS 2 endpoint needs its topic and QoS (ros.hpp)");
   }
 }
 
-/// Sets the QoS both sides share: reliability, durability and KEEP_LAST depth of the endpoint,
-/// and unlimited resource limits. The default max_instances = 10 makes writes to an 11th key fail
-/// silently; once one limit is unlimited, max_samples must be too or the entity is not created.
+/// Sets the QoS both sides share: reliability, durability, KEEP_LAST `depth` (the writer's
+/// depth, or the reader's) and the resource limits of the endpoint (topics.hpp, TopicQos).
+/// Never the Fast DDS default resource limits: their max_instances = 10 makes writes to an 11th
+/// key fail silently. Once one limit is unlimited, max_samples must be too, and max_samples must
+/// not be below max_instances x max_samples_per_instance, or the entity is not created.
 template <class Qos>
-void set_common_qos(Qos& qos, const TopicQos& e) {
+void set_common_qos(Qos& qos, const TopicQos& e, std::int32_t depth) {
   qos.reliability().kind =
       e.reliable ? fdds::RELIABLE_RELIABILITY_QOS : fdds::BEST_EFFORT_RELIABILITY_QOS;
   qos.durability().kind =
       e.transient_local ? fdds::TRANSIENT_LOCAL_DURABILITY_QOS : fdds::VOLATILE_DURABILITY_QOS;
   qos.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
-  qos.history().depth = e.depth;
-  qos.resource_limits().max_samples = 0;
-  qos.resource_limits().max_instances = 0;
-  qos.resource_limits().max_samples_per_instance = 0;
+  qos.history().depth = depth;
+  auto& limits = qos.resource_limits();
+  if (e.max_instances > 0) {
+    // Bounded (esfleet) types make a writer's pool PREALLOCATED, so a sample longer than the
+    // bound fails to serialize and write() returns false. Data sharing, which Fast DDS would
+    // consider for bounded types, is off: our types are keyed (which rules it out in 2.9), and
+    // the transports are the profile's choice (deploy/fastdds), never an implicit one.
+    qos.data_sharing().off();
+    limits.max_instances = e.max_instances;
+    limits.max_samples_per_instance = depth;
+    limits.max_samples = e.max_instances * depth;
+    // Preallocated at creation (default 100 each): no more than one key's worth.
+    limits.allocated_samples = std::min(depth, limits.allocated_samples);
+  } else {
+    limits.max_samples = 0;
+    limits.max_instances = 0;
+    limits.max_samples_per_instance = 0;
+  }
 }
 
 /// " in partition 'X'" for error messages, "" for the default partition.
@@ -194,6 +229,24 @@ struct ReaderImpl : fdds::DataReaderListener {
   std::atomic<std::uint64_t> bytes{0};
   std::atomic<std::uint64_t> mismatches{0};
   std::atomic<std::uint64_t> errors{0};
+  std::set<std::string> mismatch_logged;  ///< writers named in a warning; guarded by callback_mutex
+
+  /// Warns once per writer (last_writer_guid) that it speaks another protocol: a robot left on
+  /// an older release is otherwise silently ignored. The samples of a protocol-2 peer reach
+  /// this check: its unbounded types have the same names and wire format, so Fast DDS matches
+  /// them (idl/esfleet.idl). At most 1000 writers are remembered, so a peer with ever new
+  /// writers cannot grow the set or flood the log.
+  void report_mismatch(std::uint16_t protocol) {
+    constexpr std::size_t kMaxLogged = 1000;
+    if (mismatch_logged.size() >= kMaxLogged || !mismatch_logged.insert(last_writer_guid).second) {
+      return;
+    }
+    spdlog::warn(
+        "{}: writer {} speaks esfleet protocol {}, this node protocol {}: its samples are dropped "
+        "(further ones counted, not logged); upgrade {} so that both speak the same protocol",
+        topic_name, last_writer_guid, protocol, kProtocolVersion,
+        protocol < kProtocolVersion ? "that robot's esfleet" : "this node's esfleet");
+  }
 
   void on_data_available(fdds::DataReader* r) override {
     std::lock_guard lock(callback_mutex);
@@ -201,19 +254,20 @@ struct ReaderImpl : fdds::DataReaderListener {
     fdds::SampleInfo info;
     while (r->take_next_sample(&sample, &info) == ReturnCode_t::RETCODE_OK) {
       if (!info.valid_data) continue;  // dispose / unregister notifications carry no data
-      if constexpr (Traits<Msg>::kHasProtocol) {
-        if (sample.protocol() != kProtocolVersion) {
-          mismatches.fetch_add(1, std::memory_order_relaxed);
-          continue;
-        }
-      }
-      SampleMeta meta;
       if (info.publication_handle != last_writer || last_writer_guid.empty()) {
         std::ostringstream guid;
         guid << eprosima::fastrtps::rtps::iHandle2GUID(info.publication_handle);
         last_writer = info.publication_handle;
         last_writer_guid = guid.str();
       }
+      if constexpr (Traits<Msg>::kHasProtocol) {
+        if (sample.protocol() != kProtocolVersion) {
+          mismatches.fetch_add(1, std::memory_order_relaxed);
+          report_mismatch(sample.protocol());
+          continue;
+        }
+      }
+      SampleMeta meta;
       meta.writer_guid = last_writer_guid;
       meta.source_timestamp_ns = info.source_timestamp.to_ns();
       meta.reception_ns = info.reception_timestamp.to_ns();
@@ -256,7 +310,7 @@ Writer<Msg>::Writer(Node& node, const TopicQos& endpoint, const std::string& par
   fdds::Topic* topic = n.topic(endpoint.topic, fdds::TypeSupport(new typename T::PubSub()));
   fdds::Publisher* publisher = impl_->publisher = n.publisher_in(partition);
   fdds::DataWriterQos qos = publisher->get_default_datawriter_qos();
-  set_common_qos(qos, endpoint);
+  set_common_qos(qos, endpoint, endpoint.depth);
   // Heartbeat every 100 ms (default 3 s): a lost last sample is repaired within ~100 ms.
   qos.reliable_writer_qos().times.heartbeatPeriod = eprosima::fastrtps::Duration_t(0, 100'000'000);
   impl_->writer = publisher->create_datawriter(topic, qos, nullptr, fdds::StatusMask::none());
@@ -368,7 +422,18 @@ Reader<Msg>::Reader(Node& node, Callback callback, const TopicQos& endpoint,
   fdds::Topic* topic = n.topic(endpoint.topic, fdds::TypeSupport(new typename T::PubSub()));
   fdds::Subscriber* subscriber = impl_->subscriber = n.subscriber_in(partition);
   fdds::DataReaderQos qos = subscriber->get_default_datareader_qos();
-  set_common_qos(qos, endpoint);
+  set_common_qos(qos, endpoint, endpoint.reader_depth > 0 ? endpoint.reader_depth : endpoint.depth);
+  if constexpr (T::kHasProtocol) {
+    // Every esfleet type is bounded (idl/esfleet.idl), so its payload pool can hold samples of
+    // exactly the type's maximum serialized size, and Fast DDS 2.9 refuses a longer sample
+    // (ReaderHistory::can_change_be_added_nts) before reserving memory for it or reassembling
+    // its fragments, and marks it irrelevant so that the writer does not resend it. Fast DDS
+    // 2.9 also turns the default PREALLOCATED_WITH_REALLOC into this for a type whose
+    // is_bounded() is true (DataReaderImpl::get_payload_pool), as fastddsgen's code says for
+    // these types; set here so that the guarantee does not rest on that. For an unbounded type
+    // the default grows the payload to any size a peer announces.
+    qos.endpoint().history_memory_policy = eprosima::fastrtps::rtps::PREALLOCATED_MEMORY_MODE;
+  }
   // The listener is attached to the DataReader with only data_available enabled (pitfall 1).
   impl_->reader =
       subscriber->create_datareader(topic, qos, impl_.get(), fdds::StatusMask::data_available());

@@ -45,7 +45,7 @@ std::size_t TilePartAssembler::pending_tiles() const {
 void TilePartAssembler::drop_chunks(Entry& e) {
   pending_bytes_ -= e.bytes + kPartOverhead * e.received;
   pending_parts_ -= e.received;
-  e.chunks.clear();
+  e.waiting.reset();
   e.received = 0;
   e.bytes = 0;
 }
@@ -136,10 +136,12 @@ std::optional<mapshare::TileMessage> TilePartAssembler::add_part(const Msg& m,
     e.version = header.version;
     e.parts = parts;
     e.payload_size = m.payload_size();
-    e.header = std::move(header);
+    e.waiting = std::make_unique<Waiting>();
+    e.waiting->header = std::move(header);
   } else {
-    if (e.joined) return std::nullopt;  // a duplicate of a part already joined
-    const mapshare::TileMessage& h = e.header;
+    // A duplicate of a part already joined (only a version being joined has parts waiting).
+    if (e.joined || !e.waiting) return std::nullopt;
+    const mapshare::TileMessage& h = e.waiting->header;
     if (parts != e.parts || m.payload_size() != e.payload_size ||
         header.base_version != h.base_version || header.cells != h.cells ||
         header.tile_edge != h.tile_edge || header.encoding != h.encoding ||
@@ -147,16 +149,16 @@ std::optional<mapshare::TileMessage> TilePartAssembler::add_part(const Msg& m,
       return refuse("parts of version " + std::to_string(e.version) + " disagree");
     }
   }
-  if (e.chunks.contains(part)) return std::nullopt;  // a duplicate
+  if (e.waiting->chunks.contains(part)) return std::nullopt;  // a duplicate
   if (pending_bytes_ + bytes.size() + kPartOverhead > kMaxPendingBytes) {
     return refuse("more than " + std::to_string(kMaxPendingBytes) + " bytes of parts waiting");
   }
   e.bytes += bytes.size();
   pending_bytes_ += bytes.size() + kPartOverhead;
   ++pending_parts_;
-  e.chunks.emplace(part, std::move(bytes));
+  e.waiting->chunks.emplace(part, std::move(bytes));
   if (++e.received < e.parts) return std::nullopt;
-  mapshare::TileMessage out = e.header;
+  mapshare::TileMessage out = std::move(e.waiting->header);
   const std::size_t total = e.bytes;
   if (total != e.payload_size) {
     drop_chunks(e);
@@ -165,7 +167,9 @@ std::optional<mapshare::TileMessage> TilePartAssembler::add_part(const Msg& m,
                   std::to_string(e.payload_size));
   }
   out.payload.reserve(total);
-  for (const auto& [index, c] : e.chunks) out.payload.insert(out.payload.end(), c.begin(), c.end());
+  for (const auto& [index, c] : e.waiting->chunks) {
+    out.payload.insert(out.payload.end(), c.begin(), c.end());
+  }
   drop_chunks(e);
   e.joined = true;
   return out;
@@ -192,13 +196,14 @@ mapshare::MetaMessage meta_from_msg(const msg::MapMeta& m) {
 }
 
 LaserScan scan_from_msg(const msg::LaserScanMsg& m) {
-  constexpr std::size_t kMaxBeams = 10000;
+  constexpr std::size_t kMaxBeams = msg::kMaxScanBeams;  // the wire's bound (protocol 3)
   auto fail = [](const std::string& what) {
     throw std::invalid_argument("laser scan message: " + what);
   };
   if (m.ranges().empty()) fail("ranges is empty");
   if (m.ranges().size() > kMaxBeams) {
-    fail("ranges has " + std::to_string(m.ranges().size()) + " beams, more than 10000");
+    fail("ranges has " + std::to_string(m.ranges().size()) + " beams, more than " +
+         std::to_string(kMaxBeams));
   }
   if (!std::isfinite(m.stamp())) fail("stamp is not finite");
   if (!std::isfinite(m.angle_min()) || !std::isfinite(m.angle_increment()) ||

@@ -8,6 +8,8 @@ namespace esfleet::dds {
 
 static_assert(mapshare::kProtocolVersion == msg::kProtocolVersion,
               "mapshare's messages.hpp and idl/esfleet.idl must name the same protocol");
+static_assert(kTilePartBytes == msg::kTilePartBytes,
+              "the parts tile_to_msgs cuts must fit the bounded payload of idl/esfleet.idl");
 
 namespace {
 /// The fields MapTile and MapTileDelta share.

@@ -62,6 +62,12 @@ std::string MapReplica::check_tile(const TileMessage& t, bool against_map) const
     return "tile (" + std::to_string(t.tx) + ", " + std::to_string(t.ty) + ") is outside +-" +
            std::to_string(local_.max_tile_coord);
   }
+  // Bounds the directory of the map (GridMapConfig::max_tile_span): two tiles far apart, even
+  // well-formed ones, cannot make it huge.
+  if (against_map && map_ && !map_->key_in_range(t.key())) {
+    return "tile (" + std::to_string(t.tx) + ", " + std::to_string(t.ty) +
+           ") would make the map span more than " + std::to_string(local_.max_tile_span) + " tiles";
+  }
   if (t.is_delta() && *t.base_version >= t.version) {
     return "base_version " + std::to_string(*t.base_version) + " is not older than version " +
            std::to_string(t.version);

@@ -109,6 +109,29 @@ TEST(GridMapTest, SetTileRejectsWrongSizesAndFarKeys) {
   EXPECT_NO_THROW(map.set_tile({-100, 100}, 1, ok, ok));
 }
 
+TEST(GridMapTest, TilesSpanAtMostMaxTileSpan) {
+  // Two tiles at opposite corners of +-max_tile_coord made a directory of the whole range
+  // (8.4 M slots at 1024); now the tiles' bounding box is bounded along each axis.
+  GridMap map(GridMapConfig{
+      .cell_size = 0.05, .tile_edge = 8, .max_tile_coord = 1024, .max_tile_span = 512});
+  std::vector<std::uint32_t> ok(64, 0);
+  ok[5] = 3;
+  EXPECT_NO_THROW(map.set_tile({-1024, -1024}, 1, ok, ok));
+  EXPECT_FALSE(map.key_in_range({1024, 1024}));
+  EXPECT_THROW(map.set_tile({1024, 1024}, 1, ok, ok), std::invalid_argument);
+  EXPECT_THROW(map.set_tile({-1024 + 512, -1024}, 1, ok, ok), std::invalid_argument);
+  EXPECT_FALSE(map.add_hit({8 * (-1024 + 512), 8 * -1024}));
+  // The far edge of the span is still allowed, in both axes, and every tile stays readable
+  // through the directory.
+  EXPECT_NO_THROW(map.set_tile({-1024 + 511, -1024 + 511}, 1, ok, ok));
+  EXPECT_TRUE(map.add_hit({8 * (-1024 + 300), 8 * (-1024 + 200)}));
+  EXPECT_EQ(map.tile_count(), 3u);
+  EXPECT_EQ(map.hit({8 * -1024 + 5, 8 * -1024}), 3u);
+  EXPECT_EQ(map.hit({8 * (-1024 + 511) + 5, 8 * (-1024 + 511)}), 3u);
+  EXPECT_EQ(map.hit({8 * (-1024 + 300), 8 * (-1024 + 200)}), 1u);
+  EXPECT_THROW(GridMap(GridMapConfig{.max_tile_span = 0}), std::invalid_argument);
+}
+
 TEST(GridMapTest, KnownBoundsCoverObservedCellsOnly) {
   GridMap map;
   EXPECT_TRUE(map.known_bounds().empty);

@@ -72,8 +72,10 @@ constexpr const char* kProfile = "esfleet_localhost_udp";
 constexpr const char* kTopic = "esfleet/map/tiles";
 constexpr int kTiles = 6;
 
-/// The QoS of esfleet's tile topic (dds/src/endpoints.cpp: set_common_qos and the writer's
-/// heartbeat), on either side.
+/// The QoS of esfleet's tile topic before protocol 3 (unlimited resource limits, payload pools
+/// that grow), on either side. Since protocol 3 the tile payload is bounded and esfleet's pools
+/// are preallocated at that bound, so the 3000-byte sample below could neither be written nor
+/// received: dynamic pools keep the probe on the Fast DDS bug it watches for.
 template <class Qos>
 void tile_qos(Qos& qos) {
   qos.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
@@ -83,6 +85,7 @@ void tile_qos(Qos& qos) {
   qos.resource_limits().max_samples = 0;
   qos.resource_limits().max_instances = 0;
   qos.resource_limits().max_samples_per_instance = 0;
+  qos.endpoint().history_memory_policy = eprosima::fastrtps::rtps::DYNAMIC_RESERVE_MEMORY_MODE;
 }
 
 fdds::DomainParticipant* participant(

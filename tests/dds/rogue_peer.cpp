@@ -4,20 +4,25 @@
 // every --period-ms a round of bad samples for the leader's map id:
 //   tiles:  undecodable zlib, raw payload of the wrong length, cells != tile_edge^2, another
 //           tile_edge or cell_size than the map's, keys far out of range (plus --key-flood new
-//           out-of-range keys per round), stale versions (below the leader's) with well-formed
-//           payloads, version 0, another protocol, unknown encoding, a newer epoch with an
-//           undecodable payload, and every --oversized-every rounds a --oversized-mb payload;
+//           out-of-range keys per round, at most --flood-max in all, each also a delta key),
+//           stale versions (below the leader's) with well-formed payloads, version 0, the old
+//           protocol 2, unknown encoding, a newer epoch with an undecodable payload, and every
+//           --oversized-every rounds a --oversized-mb payload (far beyond the bounded type: its
+//           writers have dynamic payload pools, which serialize any size);
 //   deltas: base_version >= version, a bogus base (the replica lacks it), undecodable payload,
 //           another tile_edge;
 //   summaries: absurd bounds, more tiles than the bounds hold, another tile_edge / cell_size in
 //           the same epoch, an older epoch, another map id.
 // Every bad sample is one the follower can tell from the leader's by validation alone; a
 // well-formed newer tile cannot be (that takes DDS Security, docs/security.md).
-// At the end it prints "rogue: sent N samples (T tiles, D deltas, M summaries, O oversized) in
-// R rounds".
+// At the end it prints "rogue: sent N samples (T tiles, D deltas, M summaries, O oversized,
+// F flood keys) in R rounds" and "rogue: leader's map: T tiles in K part keys" (the keys the
+// leader's tile writer used, the measure of tile_topic's kMaxTileKeys). --passive: learn and
+// report only, send nothing.
 //
 // usage: rogue_peer --domain N --profile FILE [--period-ms 100] [--duration S]
-//                   [--key-flood K] [--oversized-every N] [--oversized-mb MB]
+//                   [--key-flood K] [--flood-max N] [--oversized-every N] [--oversized-mb MB]
+//                   [--passive 1]
 
 #include <atomic>
 #include <chrono>
@@ -29,9 +34,12 @@
 #include <mutex>
 #include <optional>
 #include <random>
+#include <set>
 #include <stdexcept>
 #include <string>
 #include <thread>
+#include <tuple>
+#include <type_traits>
 #include <vector>
 
 #include <esfleet/msg/esfleetPubSubTypes.h>
@@ -66,8 +74,10 @@ struct Options {
   int period_ms = 100;
   double duration = 0.0;  ///< 0 = until a signal
   int key_flood = 10;
+  long flood_max = 1'000'000'000;  ///< flood keys in all
   int oversized_every = 20;
   int oversized_mb = 16;
+  bool passive = false;
 };
 
 Options parse(int argc, char** argv) {
@@ -90,6 +100,10 @@ Options parse(int argc, char** argv) {
       o.oversized_every = std::stoi(v);
     } else if (a == "--oversized-mb") {
       o.oversized_mb = std::stoi(v);
+    } else if (a == "--flood-max") {
+      o.flood_max = std::stol(v);
+    } else if (a == "--passive") {
+      o.passive = v != "0";
     } else {
       throw std::invalid_argument("unknown option " + a);
     }
@@ -104,6 +118,7 @@ struct Learned {
   float cell_size = 0.0f;
   std::uint16_t tile_edge = 0;
   std::map<std::pair<std::int32_t, std::int32_t>, std::uint64_t> versions;  ///< key -> newest
+  std::size_t part_keys = 0;  ///< (tx, ty, part) keys the leader's tiles used
   std::optional<msg::MapMeta> meta;
 };
 
@@ -125,6 +140,8 @@ class Spy : public fdds::DataReaderListener {
         learned.tile_edge = t.tile_edge();
         auto& v = learned.versions[{t.tx(), t.ty()}];
         v = std::max(v, t.version());
+        parts.insert({t.tx(), t.ty(), t.part()});
+        learned.part_keys = parts.size();
       }
     } else {
       msg::MapMeta m;
@@ -138,6 +155,7 @@ class Spy : public fdds::DataReaderListener {
   eprosima::fastrtps::rtps::GuidPrefix_t self;  ///< the rogue's own participant
   std::mutex mutex;
   Learned learned;
+  std::set<std::tuple<std::int32_t, std::int32_t, std::uint16_t>> parts;
 };
 
 template <class PubSub>
@@ -152,9 +170,15 @@ fdds::Topic* make_topic(fdds::DomainParticipant* p, std::string_view name) {
   return topic;
 }
 
-/// The QoS esfleet's endpoints use (dds/src/endpoints.cpp), so the follower matches.
+/// The QoS esfleet's endpoints use (dds/src/endpoints.cpp), so the follower matches; resource
+/// limits unlimited, as a hostile peer would have them. A writer's pool is dynamic: with a
+/// bounded type Fast DDS 2.9 turns the default PREALLOCATED_WITH_REALLOC into PREALLOCATED,
+/// which cannot serialize more than the bound; a hostile writer does not care about the bound.
 template <class Qos>
 void esfleet_qos(Qos& q, bool transient_local, int depth) {
+  if constexpr (std::is_same_v<Qos, fdds::DataWriterQos>) {
+    q.endpoint().history_memory_policy = eprosima::fastrtps::rtps::DYNAMIC_RESERVE_MEMORY_MODE;
+  }
   q.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
   q.durability().kind =
       transient_local ? fdds::TRANSIENT_LOCAL_DURABILITY_QOS : fdds::VOLATILE_DURABILITY_QOS;
@@ -225,12 +249,12 @@ int main(int argc, char** argv) try {
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
   if (!done()) std::this_thread::sleep_for(std::chrono::seconds(1));
-  std::fprintf(stderr, "rogue: attacking map '%s' epoch %u (%zu tiles known)\n", l.map_id.c_str(),
-               l.epoch, l.versions.size());
+  std::fprintf(stderr, "rogue: %s map '%s' epoch %u (%zu tiles known)\n",
+               o.passive ? "watching" : "attacking", l.map_id.c_str(), l.epoch, l.versions.size());
 
   std::mt19937 rng(213);
-  std::uint64_t n_tiles = 0, n_deltas = 0, n_metas = 0, n_oversized = 0, rounds = 0;
-  // Every bad sample as a message of one part (protocol 2), so that the follower judges its
+  std::uint64_t n_tiles = 0, n_deltas = 0, n_metas = 0, n_oversized = 0, n_flood = 0, rounds = 0;
+  // Every bad sample as a message of one part (protocol 3), so that the follower judges its
   // content, not its part fields.
   const auto write_tile = [&](msg::MapTile t) {
     t.parts(1);
@@ -244,6 +268,8 @@ int main(int argc, char** argv) try {
   };
   const auto write_meta = [&](msg::MapMeta m) { n_metas += meta_w->write(&m) ? 1 : 0; };
   std::int32_t flood_next = 1'000'000;
+  std::vector<std::int32_t> flood_deltas;  ///< this round's flood keys, for the deltas
+  while (o.passive && !done()) std::this_thread::sleep_for(std::chrono::milliseconds(50));
   while (!done()) {
     {
       std::lock_guard lock(spy.mutex);
@@ -298,15 +324,17 @@ int main(int argc, char** argv) try {
     t.tx(2'000'000'000);
     t.ty(-2'000'000'000);
     write_tile(t);
-    for (int k = 0; k < o.key_flood; ++k) {
+    // Each flood key on both keyed map topics: a tile and a delta at a new key.
+    for (int k = 0; k < o.key_flood && static_cast<long>(n_flood) < o.flood_max; ++k, ++n_flood) {
       t = base(1);
       t.tx(flood_next++);
       write_tile(t);
+      flood_deltas.push_back(t.tx());
     }
     if (newest > 1) write_tile(base(newest - 1));  // stale, well formed
     write_tile(base(0));                           // version 0
     t = base(ahead);
-    t.protocol(99);
+    t.protocol(2);  // a robot left on the release before the bounded types
     write_tile(t);
     t = base(ahead);
     t.encoding(7);
@@ -342,6 +370,12 @@ int main(int argc, char** argv) try {
       d.leader_stamp_ns(0);
       return d;
     };
+    for (const std::int32_t tx : flood_deltas) {
+      msg::MapTileDelta fd = delta(1, 2);
+      fd.tx(tx);
+      write_delta(fd);
+    }
+    flood_deltas.clear();
     write_delta(delta(ahead, ahead));          // base not older than version
     write_delta(delta(ahead + 1, ahead + 2));  // a base nobody holds
     msg::MapTileDelta d = delta(newest, ahead);
@@ -382,12 +416,17 @@ int main(int argc, char** argv) try {
     std::this_thread::sleep_for(std::chrono::milliseconds(o.period_ms));
   }
   std::printf(
-      "rogue: sent %llu samples (%llu tiles, %llu deltas, %llu summaries, %llu oversized) "
-      "in %llu rounds\n",
+      "rogue: sent %llu samples (%llu tiles, %llu deltas, %llu summaries, %llu oversized, "
+      "%llu flood keys) in %llu rounds\n",
       static_cast<unsigned long long>(n_tiles + n_deltas + n_metas),
       static_cast<unsigned long long>(n_tiles), static_cast<unsigned long long>(n_deltas),
       static_cast<unsigned long long>(n_metas), static_cast<unsigned long long>(n_oversized),
-      static_cast<unsigned long long>(rounds));
+      static_cast<unsigned long long>(n_flood), static_cast<unsigned long long>(rounds));
+  {
+    std::lock_guard lock(spy.mutex);
+    std::printf("rogue: leader's map: %zu tiles in %zu part keys\n", spy.learned.versions.size(),
+                spy.learned.part_keys);
+  }
   std::fflush(stdout);
   participant->delete_contained_entities();
   factory->delete_participant(participant);

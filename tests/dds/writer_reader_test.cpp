@@ -1,7 +1,8 @@
 // Tests of the typed writers and readers (esfleet/dds/writer.hpp, reader.hpp) between two Nodes
 // of one process over shared memory: every topic round-trips field by field, counters agree,
 // more tiles than Fast DDS's default instance limit arrive, wrong-protocol samples are refused,
-// endpoints survive their Node. Each test uses its own domain id (110-119).
+// samples longer than the bounded types (protocol 3) are not written, endpoints survive their
+// Node. Each test uses its own domain id (110-119).
 
 #include <atomic>
 #include <chrono>
@@ -20,6 +21,7 @@
 #include "dds_test_support.hpp"
 #include "esfleet/dds/node.hpp"
 #include "esfleet/dds/reader.hpp"
+#include "esfleet/dds/to_msg.hpp"
 #include "esfleet/dds/writer.hpp"
 
 namespace {
@@ -203,6 +205,54 @@ TEST(WriterReaderTest, LateReaderGetsNewestVersionOfMoreTilesThanDefaultInstance
   EXPECT_EQ(newest.size(), static_cast<std::size_t>(kTiles));
   for (const auto& [key, version] : newest) EXPECT_EQ(version, 2u);
   EXPECT_TRUE(writer.wait_for_acknowledgments(milliseconds(2000)));
+}
+
+TEST(WriterReaderTest, WriteRefusesSamplesLongerThanTheBound) {
+  // The types are bounded (protocol 3), so Fast DDS 2.9 gives the writer a preallocated pool of
+  // the type's maximum size and a longer sample fails to serialize: a leader never sends what
+  // its followers' readers refuse. (A hostile writer with a dynamic pool can send one; that it
+  // never reaches the follower is security.rogue_peer's check.)
+  Node leader({117, kShm, "leader"});
+  Node follower({117, kShm, "follower"});
+  Inbox<msg::MapTile> tiles;
+  Inbox<msg::LaserScanMsg> scans;
+  TileReader tile_reader(follower, tiles.callback());
+  ScanReader scan_reader(follower, scans.callback());
+  TileWriter tile_writer(leader);
+  ScanWriter scan_writer(leader);
+  ASSERT_TRUE(tile_writer.wait_for_matched(1, milliseconds(5000)));
+  ASSERT_TRUE(scan_writer.wait_for_matched(1, milliseconds(5000)));
+
+  msg::MapTile over = tile(2, 2, 1);
+  over.payload(std::vector<std::uint8_t>(kTilePartBytes + 1000, 0x22));
+  EXPECT_FALSE(tile_writer.write(over));
+  msg::MapTile full = tile(1, 1, 1);
+  full.map_id(std::string(64, 'm'));  // the longest key too
+  full.payload(std::vector<std::uint8_t>(kTilePartBytes, 0x11));
+  EXPECT_TRUE(tile_writer.write(full));
+
+  msg::LaserScanMsg scan;
+  scan.robot_id(std::string(64, 'r'));
+  scan.protocol(kProtocolVersion);
+  scan.max_range(30.0f);
+  // The byte bound has the slack of the maximal alignment padding (a few bytes): one beam
+  // too many still fits; scan_from_msg refuses it by count. 100 more do not fit.
+  scan.ranges(std::vector<float>(msg::kMaxScanBeams + 100, 1.0f));
+  EXPECT_FALSE(scan_writer.write(scan));
+  scan.ranges(std::vector<float>(msg::kMaxScanBeams, 2.0f));
+  EXPECT_TRUE(scan_writer.write(scan));
+  EXPECT_EQ(tile_writer.write_failures(), 1u);
+  EXPECT_EQ(scan_writer.write_failures(), 1u);
+
+  // The samples at the bound arrive whole.
+  ASSERT_TRUE(wait_until(
+      [&] { return tile_reader.samples_received() >= 1 && scan_reader.samples_received() >= 1; }));
+  std::lock_guard tile_lock(tiles.mutex);
+  ASSERT_EQ(tiles.samples.size(), 1u);
+  EXPECT_EQ(tiles.samples[0].payload(), full.payload());
+  std::lock_guard scan_lock(scans.mutex);
+  ASSERT_EQ(scans.samples.size(), 1u);
+  EXPECT_EQ(scans.samples[0].ranges().size(), std::size_t{msg::kMaxScanBeams});
 }
 
 TEST(WriterReaderTest, WriteRefusesWrongProtocol) {

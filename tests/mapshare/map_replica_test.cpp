@@ -118,6 +118,9 @@ TEST(MapReplica, MalformedTilesAreRejectedWithAReasonAndChangeNothing) {
       {"cell size", [](TileMessage& t) { t.cell_size = std::nanf(""); }, "cell_size"},
       {"cell size change", [](TileMessage& t) { t.cell_size = 0.1f; }, "differs"},
       {"key", [](TileMessage& t) { t.tx = 5000000; }, "outside"},
+      // Within +-1024 but 1000 tiles from the map: the directory would span them all.
+      {"far key", [](TileMessage& t) { t.tx = t.tx >= 0 ? t.tx - 1000 : t.tx + 1000; },
+       "would make the map span more than 512 tiles"},
       {"encoding", [](TileMessage& t) { t.encoding = 7; }, "unknown encoding 7"},
       {"payload", [](TileMessage& t) { t.payload.resize(t.payload.size() / 2); }, "zlib"},
       {"version 0", [](TileMessage& t) { t.version = 0; }, "version 0"},
@@ -225,7 +228,7 @@ TEST(MapReplica, ADeltaWithoutItsBaseNeedsBaseAndChangesNothing) {
   MapReplica replica;
   EXPECT_EQ(replica.apply(d12), Applied::kNeedsBase);  // no map at all yet
   EXPECT_FALSE(replica.has_map());
-  send_all(test::random_map(13), replica, id);  // another map: no tile (900, ty)
+  send_all(test::random_map(13), replica, id);  // another map: no tile (300, ty)
   const std::string before = map_digest(replica.map());
   MapReplica fresh;
   EXPECT_EQ(fresh.apply(full1), Applied::kApplied);
@@ -241,7 +244,7 @@ TEST(MapReplica, ADeltaWithoutItsBaseNeedsBaseAndChangesNothing) {
   EXPECT_EQ(fresh.apply(d12), Applied::kStale);
   // The replica holding other tiles but not the base of k: needs base, unchanged.
   TileMessage elsewhere = d12;
-  elsewhere.tx = 900;
+  elsewhere.tx = 300;  // within max_tile_span of the map (900 is refused as too far)
   EXPECT_EQ(replica.apply(elsewhere), Applied::kNeedsBase);
   EXPECT_EQ(map_digest(replica.map()), before);
 }

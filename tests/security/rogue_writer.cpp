@@ -21,6 +21,7 @@
 #include <esfleet/msg/esfleet.h>
 
 #include "esfleet/dds/node.hpp"
+#include "esfleet/dds/to_msg.hpp"
 #include "esfleet/dds/topics.hpp"
 #include "esfleet/dds/writer.hpp"
 
@@ -112,9 +113,10 @@ int main(int argc, char** argv) {
     tile.tile_edge(64);
     tile.encoding(0);
     tile.cells(64 * 64);
-    tile.payload(std::vector<std::uint8_t>(64 * 64 * 8, 0xab));
+    // One part of the largest size the bounded type allows (protocol 3).
+    tile.payload(std::vector<std::uint8_t>(esfleet::dds::kTilePartBytes, 0xab));
     tile.parts(1);
-    tile.payload_size(64 * 64 * 8);
+    tile.payload_size(static_cast<std::uint32_t>(esfleet::dds::kTilePartBytes));
     return run(*node, o, tile);
   }
   esfleet::msg::RobotPose pose;

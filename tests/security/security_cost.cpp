@@ -22,6 +22,7 @@
 
 #include "esfleet/dds/node.hpp"
 #include "esfleet/dds/reader.hpp"
+#include "esfleet/dds/to_msg.hpp"
 #include "esfleet/dds/topics.hpp"
 #include "esfleet/dds/writer.hpp"
 
@@ -40,7 +41,7 @@ int main(int argc, char** argv) {
   options.name = "security_cost";
   std::string role;
   int count = 5000;
-  std::size_t bytes = 16384;
+  std::size_t bytes = esfleet::dds::kTilePartBytes;  // the most one tile part holds
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string flag = argv[i], value = argv[i + 1];
     if (flag == "--role")
@@ -59,6 +60,12 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "security_cost: unknown flag %s\n", flag.c_str());
       return 2;
     }
+  }
+  if (bytes > esfleet::dds::kTilePartBytes) {
+    // Protocol 3 bounds a part's payload; the writer would refuse every sample.
+    std::fprintf(stderr, "security_cost: --bytes at most %zu (one tile part)\n",
+                 esfleet::dds::kTilePartBytes);
+    return 2;
   }
   try {
     const auto start = Clock::now();

@@ -55,6 +55,12 @@ struct GridMapConfig {
   /// Tiles may exist only with |tx|, |ty| <= this: bounds the directory and rejects absurd
   /// coordinates (64-cell tiles of 5 cm: +-3.3 km).
   int max_tile_coord = 1024;
+  /// Tiles may span at most this many tiles along each axis (their bounding box): bounds the
+  /// directory, which holds one pointer per tile of the box and level (2 MB per level at 512).
+  /// Without it, two tiles at opposite corners of +-max_tile_coord, which a hostile peer can
+  /// send as well-formed tiles, made an 8.4 M-slot directory, 67 MB per level. 512 tiles of
+  /// 64 cells of 5 cm are 1.6 km, far more than a map of dds::kMaxTileKeys parts covers.
+  int max_tile_span = 512;
   /// Coarse levels kept for coarse-to-fine search (ours, not in the paper): level k has cells
   /// 2^k times larger whose score is the maximum score of the cells they cover. 0 = none.
   int pyramid_levels = 0;
@@ -92,7 +98,8 @@ class GridMap {
   /// The cell containing world point (x, y): floor(x / cell_size), floor(y / cell_size).
   CellIndex cell_of(double x, double y) const;
   TileKey tile_of(CellIndex c) const { return {c.x >> shift_, c.y >> shift_}; }
-  /// True when a tile at this key is allowed (|tx|, |ty| <= max_tile_coord).
+  /// True when a tile at this key is allowed: |tx|, |ty| <= max_tile_coord, and the tiles with
+  /// it span at most max_tile_span tiles along each axis.
   bool key_in_range(TileKey k) const;
 
   std::uint32_t hit(CellIndex c) const;
@@ -223,6 +230,8 @@ class GridMap {
   std::int32_t dir_tx0_ = 0, dir_ty0_ = 0;
   std::uint32_t dir_w_ = 0, dir_h_ = 0;
   int dir_stride_shift_ = 0;
+  // Bounding box of the tiles, inclusive (meaningful when tiles_ is not empty).
+  std::int32_t box_tx0_ = 0, box_ty0_ = 0, box_tx1_ = 0, box_ty1_ = 0;
 };
 
 }  // namespace esfleet

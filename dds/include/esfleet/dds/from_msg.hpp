@@ -6,6 +6,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
 #include <tuple>
@@ -15,6 +16,7 @@
 
 #include "esfleet/core/geometry.hpp"
 #include "esfleet/core/laser_scan.hpp"
+#include "esfleet/dds/topics.hpp"
 #include "esfleet/mapshare/messages.hpp"
 
 namespace esfleet::dds {
@@ -44,8 +46,9 @@ class TilePartAssembler {
   static constexpr std::size_t kMaxPendingBytes = 64u << 20;
   /// What one waiting part costs besides its payload, in the count against kMaxPendingBytes.
   static constexpr std::size_t kPartOverhead = 64;
-  /// Tiles remembered at once (waiting or joined), beyond which new tiles' parts are refused.
-  static constexpr std::size_t kMaxTiles = 1u << 16;
+  /// Tiles remembered at once (waiting or joined, per writer), beyond which new tiles' parts
+  /// are refused: as many as a tile reader holds keys (kMaxTileKeys, topics.hpp).
+  static constexpr std::size_t kMaxTiles = kMaxTileKeys;
 
   /// Adds one received part. Returns the joined message when this part completed its version
   /// (also at once for a message of one part), std::nullopt otherwise. On std::nullopt,
@@ -68,16 +71,22 @@ class TilePartAssembler {
  private:
   using Key =
       std::tuple<std::string, std::string, std::int32_t, std::int32_t>;  ///< writer, map, tx, ty
+  /// The parts of a version still being joined.
+  struct Waiting {
+    mapshare::TileMessage header;                               ///< the first part's fields
+    std::map<std::uint16_t, std::vector<std::uint8_t>> chunks;  ///< part -> its bytes
+  };
+  /// Small for a tile that is only remembered (joined, or of one part): a flood of new keys
+  /// costs one of these per key, up to kMaxTiles.
   struct Entry {
     std::uint32_t epoch = 0;
     std::uint64_t version = 0;
-    bool joined = false;           ///< this version was returned; its parts are no longer kept
-    mapshare::TileMessage header;  ///< the first part's fields, without payload
+    bool joined = false;  ///< this version was returned; its parts are no longer kept
     std::uint16_t parts = 0;
     std::uint32_t payload_size = 0;
-    std::map<std::uint16_t, std::vector<std::uint8_t>> chunks;  ///< part -> its bytes
-    std::size_t received = 0;                                   ///< chunks present
-    std::size_t bytes = 0;                                      ///< their payload bytes
+    std::size_t received = 0;          ///< chunks present
+    std::size_t bytes = 0;             ///< their payload bytes
+    std::unique_ptr<Waiting> waiting;  ///< set while parts of this version wait
   };
   template <typename Msg>
   std::optional<mapshare::TileMessage> add_part(const Msg& m, const std::string& writer,

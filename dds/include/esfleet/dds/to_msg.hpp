@@ -21,6 +21,7 @@ namespace esfleet::dds {
 /// the RTPS header, INFO_DST, INFO_TS, DATA_FRAG header and a heartbeat: RTPSWriter.cpp:303-322).
 /// Samples that are never fragmented cannot meet the Fast DDS 2.9.1 GAP bug that aborted
 /// followers (docs/faults.md, "Fragmented tiles and the Fast DDS GAP bug").
+/// Also the bound of the wire's payload sequences (msg::kTilePartBytes, protocol 3).
 inline constexpr std::size_t kTilePartBytes = 1024;
 
 /// A whole tile (`tile.is_delta()` must be false) as the samples that carry it: its payload cut

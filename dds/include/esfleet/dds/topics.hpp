@@ -19,7 +19,7 @@ namespace esfleet::dds {
 /// Version of the wire protocol; every message's `protocol` field must hold it. Mirrors
 /// esfleet::msg::kProtocolVersion in idl/esfleet.idl (a static_assert in node.cpp keeps the two
 /// equal). Readers drop samples of any other protocol.
-inline constexpr std::uint16_t kProtocolVersion = 2;
+inline constexpr std::uint16_t kProtocolVersion = 3;
 
 /// DDS domain used when nothing else is configured.
 inline constexpr int kDefaultDomain = 0;
@@ -47,14 +47,41 @@ inline constexpr std::string_view kScanTopic = "esfleet/robots/scan";
 /// For evaluation only: SLAM and localisation never subscribe to it.
 inline constexpr std::string_view kTruthTopic = "esfleet/sim/truth";
 
+/// Keys (map_id, tx, ty, part) a tile or delta endpoint holds at once (its max_instances):
+/// about 4096 tiles of 4 parts (64-cell tiles at 5 cm are 3.2 m square: 4096 cover
+/// 200 m x 200 m). A real map needs far fewer: the whole MIT CSAIL log (odometry on) makes 236
+/// tiles in 532 part keys, fr079 69 tiles in 266 (MED zlib; rogue_peer --passive), 30 and 60
+/// times less. Every key stays an instance for as long as its writer lives (KEEP_LAST keeps the
+/// newest sample per key), so this, not the run's length, bounds what a peer flooding new keys
+/// costs a follower: about 0.6 kB per key with the follower's own bookkeeping
+/// (dds::TilePartAssembler), 19 MB for both topics at the bound, less than a clean follower's
+/// peak (docs/fuzzing.md, "Memory"). The price: once a flood has filled it, Fast DDS refuses
+/// the leader's new keys for good (a sample rejected by the instance limit is never resent)
+/// until the flooding writer leaves and the follower rejoins; only DDS Security keeps such a
+/// peer out.
+inline constexpr std::int32_t kMaxTileKeys = 16384;
+/// Maps (map_id keys) a summary endpoint holds: one leader per map, a few per domain.
+inline constexpr std::int32_t kMaxMaps = 64;
+/// Robots (robot_id keys) a pose, scan or truth endpoint holds: the largest fleet, with room.
+inline constexpr std::int32_t kMaxRobots = 256;
+
 /// One endpoint's DDS topic name and QoS. Each esfleet message type has its own (writer.hpp);
-/// the ROS 2 endpoints (ros.hpp) pick theirs per topic, as ROS 2 tools expect them. Resource
-/// limits are always unlimited; writers send heartbeats every 100 ms.
+/// the ROS 2 endpoints (ros.hpp) pick theirs per topic, as ROS 2 tools expect them. Writers
+/// send heartbeats every 100 ms.
+///
+/// Resource limits: max_instances = `max_instances`, max_samples_per_instance = the endpoint's
+/// KEEP_LAST depth, max_samples = their product (Fast DDS 2.9 refuses an entity whose
+/// max_samples is below the product, or finite while another limit is unlimited). 0 = all
+/// unlimited: the ROS 2 endpoints, whose types esfleet does not bound.
 struct TopicQos {
-  std::string topic;             ///< DDS topic name, e.g. "esfleet/map/tiles" or "rt/map"
-  bool reliable = true;          ///< RELIABLE, else BEST_EFFORT
-  bool transient_local = false;  ///< TRANSIENT_LOCAL, else VOLATILE
-  std::int32_t depth = 1;        ///< KEEP_LAST depth (per key for keyed topics)
+  std::string topic;               ///< DDS topic name, e.g. "esfleet/map/tiles" or "rt/map"
+  bool reliable = true;            ///< RELIABLE, else BEST_EFFORT
+  bool transient_local = false;    ///< TRANSIENT_LOCAL, else VOLATILE
+  std::int32_t depth = 1;          ///< KEEP_LAST depth (per key for keyed topics)
+  std::int32_t max_instances = 0;  ///< keys held at once; 0 = unlimited resource limits
+  /// KEEP_LAST depth of the readers if > 0 (else `depth`): a reader hands every sample to its
+  /// callback at once, so it needs less than a writer that must resend.
+  std::int32_t reader_depth = 0;
 };
 
 }  // namespace esfleet::dds

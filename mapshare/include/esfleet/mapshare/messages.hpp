@@ -29,7 +29,7 @@ namespace esfleet::mapshare {
 
 /// Every message carries this; receivers reject any other (idl: msg::kProtocolVersion, and
 /// dds/ checks that the two agree at compile time).
-inline constexpr std::uint16_t kProtocolVersion = 2;
+inline constexpr std::uint16_t kProtocolVersion = 3;
 
 /// Which map a message belongs to.
 struct MapIdentity {
