@@ -6,12 +6,12 @@
 #
 # usage: bench/map_sharing_bench.sh LOG [OUTPUT_JSON] [PROFILE] [DOMAIN] [-- leader flags...]
 #   e.g. bench/map_sharing_bench.sh data/mit-csail/mit-csail.clf.gz csail.json \
-#          deploy/fastdds/localhost-shm.xml 60 -- --odometry on
+#          tests/fastdds/localhost-shm.xml 60 -- --odometry on
 set -euo pipefail
 cd "$(dirname "$0")/.."
 log=$1
 out=${2:-esfleet-bench-map-sharing.json}
-profile=${3:-deploy/fastdds/localhost-shm.xml}
+profile=${3:-tests/fastdds/localhost-shm.xml}
 domain=${4:-60}
 shift $(($# < 4 ? $# : 4))
 [ "${1:-}" = "--" ] && shift

@@ -141,7 +141,7 @@ try {
   if (!args['skip-fleet']) {
     // Shared memory, the launcher's default: the UDP loopback profile announces discovery to
     // the first 32 participant ids only (deploy/fastdds/localhost-udp.xml), too few for 64.
-    const shm = path.join(project, 'deploy/fastdds/localhost-shm.xml');
+    const shm = path.join(project, 'tests/fastdds/localhost-shm.xml');
     const domain = '92', port = '18092', url = `http://127.0.0.1:${port}/`;
     const dds = ['--domain', domain, '--profile', shm];
     const view = start('view-b', ['esfleet-view', ...dds, '--port', port, '--bind', '127.0.0.1']);

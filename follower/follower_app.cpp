@@ -248,7 +248,7 @@ void FollowerApp::warn_no_map() const {
     spdlog::warn(
         "matched {} leader map writer(s) but received nothing from them in {:.0f} s: "
         "either the leader has not mapped a scan yet (is its scan source running?) or, over "
-        "shared memory (localhost-shm.xml), a process killed earlier on this host left it "
+        "Fast DDS shared memory, a process killed earlier on this host left it "
         "writing to ports that no longer exist (Fast DDS 2.9; docs/faults.md, 'Shared memory "
         "and killed processes'): restart the leader, or run every program with "
         "deploy/fastdds/localhost-udp.xml",

@@ -321,7 +321,7 @@ void late_joiner(int domain, const std::string& profile, Transport transport) {
 }
 
 TEST(DdsProcessTest, LateJoinerGetsNewestVersionOfEveryTileOverSharedMemory) {
-  late_joiner(101, kProfiles + "/localhost-shm.xml", Transport::kSharedMemory);
+  late_joiner(101, ESFLEET_SHM_TEST_PROFILE, Transport::kSharedMemory);
 }
 
 TEST(DdsProcessTest, LateJoinerGetsNewestVersionOfEveryTileOverLoopbackUdp) {

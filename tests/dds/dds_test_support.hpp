@@ -1,7 +1,7 @@
 #pragma once
 // What the in-process DDS tests share (tests/dds/, tests/sim/): the shared-memory profile and
 // a bounded wait for what the DDS threads deliver. Their CMake defines
-// ESFLEET_FASTDDS_PROFILE_DIR.
+// ESFLEET_FASTDDS_PROFILE_DIR and ESFLEET_SHM_TEST_PROFILE.
 
 #include <chrono>
 #include <functional>
@@ -10,9 +10,8 @@
 
 namespace esfleet::test {
 
-/// deploy/fastdds/localhost-shm.xml.
-inline const std::string kShmProfile =
-    std::string(ESFLEET_FASTDDS_PROFILE_DIR) + "/localhost-shm.xml";
+/// tests/fastdds/localhost-shm.xml (a test profile, not shipped).
+inline const std::string kShmProfile = ESFLEET_SHM_TEST_PROFILE;
 
 /// Polls `done` every 5 ms until it holds or `timeout` passes; returns its last value.
 inline bool wait_until(const std::function<bool()>& done,

@@ -45,7 +45,7 @@ struct TempFile {
 };
 
 TEST(NodeTest, CreatesParticipantWithDefaultQosAndName) {
-  Node node({120, kProfiles + "/localhost-shm.xml", "node_test"});
+  Node node({120, ESFLEET_SHM_TEST_PROFILE, "node_test"});
   EXPECT_EQ(node.domain(), 120);
   EXPECT_EQ(node.guid_prefix().size(), 35u) << node.guid_prefix();  // 12 bytes "xx."
 }
@@ -93,14 +93,13 @@ TEST_P(ShippedProfileTest, CreatesParticipant) {
   ASSERT_TRUE(fs::exists(path)) << path;
   Node node({domain, path, std::string("profile_test_") + file});
   EXPECT_FALSE(node.guid_prefix().empty());
-  Node other({domain, kProfiles + "/localhost-shm.xml", ""});
+  Node other({domain, ESFLEET_SHM_TEST_PROFILE, ""});
   Node again({domain, path, ""});
   EXPECT_NE(again.guid_prefix(), node.guid_prefix());
 }
 
 INSTANTIATE_TEST_SUITE_P(Deploy, ShippedProfileTest,
-                         ::testing::Values(std::pair{"localhost-shm.xml", 130},
-                                           std::pair{"localhost-udp.xml", 131},
+                         ::testing::Values(std::pair{"localhost-udp.xml", 131},
                                            std::pair{"lan-udp.xml", 132},
                                            std::pair{"wifi-initial-peers.xml", 133},
                                            std::pair{"discovery-client.xml", 134}),

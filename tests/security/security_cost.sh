@@ -4,7 +4,7 @@
 # each (alternating), medians printed.
 #
 # usage: tests/security/security_cost.sh BIN_DIR PROFILE [RUNS] [COUNT] [BYTES] [DOMAIN]
-#   e.g. tests/security/security_cost.sh build/bin deploy/fastdds/localhost-shm.xml 5 5000 1024
+#   e.g. tests/security/security_cost.sh build/bin tests/fastdds/localhost-shm.xml 5 5000 1024
 #   (BYTES at most 1024, one tile part: protocol 3 bounds it; the figures of docs/security.md
 #   were measured with 16384-byte tiles of protocol 1)
 set -euo pipefail
