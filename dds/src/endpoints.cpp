@@ -168,8 +168,11 @@ void set_common_qos(Qos& qos, const TopicQos& e, std::int32_t depth) {
     limits.max_instances = e.max_instances;
     limits.max_samples_per_instance = depth;
     limits.max_samples = e.max_instances * depth;
-    // Preallocated at creation (default 100 each): no more than one key's worth.
-    limits.allocated_samples = std::min(depth, limits.allocated_samples);
+    // Preallocated at creation (default 100), each at the type's bound (a scan: 40 kB): only a
+    // few, the pool grows on demand up to max_samples. 50 per scan writer took the simulator
+    // with 16 robots from 46 to 74 MB.
+    constexpr std::int32_t kInitialSamples = 4;
+    limits.allocated_samples = std::min({depth, kInitialSamples, limits.allocated_samples});
   } else {
     limits.max_samples = 0;
     limits.max_instances = 0;
