@@ -22,6 +22,7 @@ void SlamConfig::validate() const {
         "slam.key_sigma_xy and key_sigma_theta must be > 0");
   if (loop.enabled) loop.validate();
   if (recovery.enabled) recovery.validate();
+  contribution.validate();
 }
 
 SlamConfig SlamConfig::paper() {
@@ -120,6 +121,7 @@ bool Slam::settle_one() {
   }
   map_.commit_update();
   keys_.resize(k + 1);
+  last_own_key_ = k;  // no contribution is added while a search is speculative
   trajectory_.resize(spec.trajectory_size);
   anchors_.resize(spec.trajectory_size);
   rng_.set_state(spec.rng);
@@ -196,7 +198,7 @@ SlamStep Slam::process_scan(const LaserScan& scan) {
       step.loop_ms = ms_since(t_loop);
       if (step.loop_closed) step.pose = trajectory_.back().pose;
     } else {
-      const std::size_t k = keys_.size() - 1;
+      const std::size_t k = last_own_key_;
       anchors_.emplace_back(k, step.pose.relative_to(graph_.node(k)));
     }
   }
@@ -266,13 +268,14 @@ bool Slam::add_key_scan(const ScanPoints& points, const Pose2& pose, double stam
   keys_.push_back(std::move(key));
   if (k > 0) {
     PoseGraphEdge e;
-    e.from = k - 1;
+    e.from = last_own_key_;
     e.to = k;
-    e.measurement = pose.relative_to(graph_.node(k - 1));
+    e.measurement = pose.relative_to(graph_.node(last_own_key_));
     e.info_xy = 1.0 / (config_.key_sigma_xy * config_.key_sigma_xy);
     e.info_theta = 1.0 / std::pow(deg_to_rad(config_.key_sigma_theta_deg), 2);
     graph_.add_edge(e);
   }
+  last_own_key_ = k;
   bool closed = false;
   if (pending_loop_ &&
       k >= pending_loop_->key + static_cast<std::size_t>(config_.loop.defer_keys)) {
@@ -478,7 +481,138 @@ void Slam::apply_graph() {
     const auto& [k, rel] = anchors_[t];
     trajectory_[t].pose = graph_.node(k).compose(rel);
   }
-  last_inserted_ = graph_.node(keys_.size() - 1);
+  last_inserted_ = graph_.node(last_own_key_);
+}
+
+ContributionResult Slam::contribute(const Contribution& c) {
+  const ContributionConfig& cc = config_.contribution;
+  ContributionResult r;
+  r.refined = c.pose;
+  // Judged against the map as the mapping thread has it, whatever the worker is doing.
+  r.loop_closed = settle();
+  const ScanPoints points =
+      prepare_scan(c.scan, config_.tracking.min_range, config_.tracking.max_range);
+  if (points.size() < static_cast<std::size_t>(cc.min_beams) || keys_.empty()) return r;
+  const FitnessOptions options = slam_fitness_options(
+      config_.tracking, config_.tracking.interpolation != Interpolation::kNone);
+  // 1. The scan agrees with the map where the contributor says it was.
+  r.value = FitnessEvaluator(map_, points, options).evaluate(c.pose);
+  if (r.value.known_share() < cc.min_known) {
+    r.verdict = ContributionVerdict::kUnknownPlace;
+    return r;
+  }
+  if (r.value.agreement() < cc.min_agreement) {
+    r.verdict = ContributionVerdict::kDisagrees;
+    return r;
+  }
+  // 2. The same ES, started at the claimed pose, moves it only a little. Its own draws: the
+  // SLAM's stream stays as it is, and the same contribution refines the same way.
+  std::uint64_t h = 1469598103934665603ULL;
+  for (const char ch : c.robot) h = (h ^ static_cast<unsigned char>(ch)) * 1099511628211ULL;
+  Rng rng(config_.seed * 0x9E3779B97F4A7C15ULL ^ h ^ (static_cast<std::uint64_t>(c.seq) << 20));
+  TrackingConfig tc = config_.tracking;
+  tc.use_odometry = false;
+  tc.prediction = MotionPrediction::kPreviousPose;
+  tc.motion_hypotheses = false;
+  tc.turn_hypotheses = false;
+  MotionState motion;
+  motion.last = {c.scan.stamp, c.pose};
+  const TrackResult refined = track_scan(tc, es_, rng, map_, points, c.scan, motion);
+  r.refined = refined.result.pose;
+  r.value = refined.result.value;
+  const Pose2 moved = r.refined.relative_to(c.pose);
+  r.moved_xy = std::hypot(moved.x, moved.y);
+  r.moved_theta_deg = std::abs(rad_to_deg(moved.theta));
+  if (r.moved_xy > cc.max_refine_xy || r.moved_theta_deg > cc.max_refine_theta_deg) {
+    r.verdict = ContributionVerdict::kRefineMoved;
+    return r;
+  }
+  if (r.value.agreement() < cc.min_agreement) {
+    r.verdict = ContributionVerdict::kDisagrees;
+    return r;
+  }
+  // 3. No beam may pass through what the map has seen occupied many times.
+  r.contradiction = occupied_contradiction(map_, points, r.refined, cc.contradiction_min_hits,
+                                           cc.contradiction_margin);
+  if (r.contradiction > cc.max_contradiction) {
+    r.verdict = ContributionVerdict::kContradicts;
+    return r;
+  }
+  r.verdict = ContributionVerdict::kAccepted;
+  update_map(map_, points, r.refined, config_.update);
+  if (!config_.loop.enabled) return r;
+  // A key scan of the pose graph.
+  std::size_t who = 0;
+  while (who < contributors_.size() && contributors_[who] != c.robot) ++who;
+  if (who == contributors_.size()) {
+    contributors_.push_back(c.robot);
+    chains_.emplace_back();
+  }
+  KeyScan key;
+  key.stamp = c.scan.stamp;
+  key.points = std::make_shared<const ScanPoints>(points);
+  key.mapped_pose = r.refined;
+  key.path_length = kContributedPathLength;
+  key.contributor = static_cast<std::uint32_t>(who + 1);
+  const std::size_t k = graph_.add_node(r.refined);
+  keys_.push_back(std::move(key));
+  ++contributed_keys_;
+  std::optional<ContributorChain>& chain = chains_[who];
+  double travel = 0.0;
+  if (chain &&
+      std::hypot(c.pose.x - chain->claimed.x, c.pose.y - chain->claimed.y) <= cc.chain_max_gap) {
+    // Its own motion between its two scans, as it tracked it.
+    PoseGraphEdge e;
+    e.from = chain->key;
+    e.to = k;
+    e.measurement = c.pose.relative_to(chain->claimed);
+    e.info_xy = 1.0 / (cc.chain_sigma_xy * cc.chain_sigma_xy);
+    e.info_theta = 1.0 / std::pow(deg_to_rad(cc.chain_sigma_theta_deg), 2);
+    graph_.add_edge(e);
+    travel = chain->unanchored_travel + std::hypot(e.measurement.x, e.measurement.y);
+  }
+  // Where the refine put it, relative to the nearest key scan of another robot.
+  std::optional<std::size_t> anchor;
+  double best = cc.anchor_radius;
+  for (std::size_t i = 0; i < k; ++i) {
+    if (keys_[i].contributor == who + 1) continue;
+    const Pose2& p = graph_.node(i);
+    const double d = std::hypot(p.x - r.refined.x, p.y - r.refined.y);
+    if (d <= best) {
+      best = d;
+      anchor = i;
+    }
+  }
+  if (anchor) {
+    PoseGraphEdge e;
+    e.from = *anchor;
+    e.to = k;
+    e.measurement = r.refined.relative_to(graph_.node(*anchor));
+    e.info_xy = 1.0 / (cc.anchor_sigma_xy * cc.anchor_sigma_xy);
+    e.info_theta = 1.0 / std::pow(deg_to_rad(cc.anchor_sigma_theta_deg), 2);
+    e.huber = config_.loop.huber;
+    const bool closes = chain.has_value() && travel >= cc.loop_chain_travel;
+    graph_.add_edge(e);
+    travel = 0.0;
+    if (closes) {
+      // A loop through unmapped space closed by this robot: the whole graph takes it.
+      graph_.optimize(10);
+      apply_graph();
+      r.loop_closed = true;
+    }
+  } else if (!chain || travel == 0.0) {
+    // Neither chained nor anchored: tie it to the leader's last key scan, weakly, so the graph
+    // stays connected (the optimiser holds only node 0 fixed).
+    PoseGraphEdge e;
+    e.from = last_own_key_;
+    e.to = k;
+    e.measurement = r.refined.relative_to(graph_.node(last_own_key_));
+    e.info_xy = 1.0;
+    e.info_theta = 1.0;
+    graph_.add_edge(e);
+  }
+  chain = ContributorChain{k, c.pose, travel};
+  return r;
 }
 
 SlamState Slam::state() const {
@@ -499,6 +633,7 @@ SlamState Slam::state() const {
   s.loop_rejected = loop_rejected_;
   s.last_loop = last_loop_;
   if (pending_loop_) s.pending_loop_key = pending_loop_->key;
+  s.contributors = contributors_;
   return s;
 }
 
@@ -527,12 +662,28 @@ void Slam::restore(SlamState s) {
         "last_loop.key out of range");
   check(!s.pending_loop_key || *s.pending_loop_key < s.keys.size(),
         "pending_loop_key out of range");
+  for (std::size_t i = 0; i < s.keys.size(); ++i) {
+    check(s.keys[i].contributor <= s.contributors.size(),
+          "keys[" + std::to_string(i) + "].contributor out of range");
+  }
   rng_.set_state(s.rng);
   trajectory_ = std::move(s.trajectory);
   last_odometry_ = s.last_odometry;
   last_inserted_ = s.last_inserted;
   path_length_ = s.path_length;
   keys_ = std::move(s.keys);
+  contributors_ = std::move(s.contributors);
+  // The contributors' chains start afresh: their next scans are tied to the graph by anchors.
+  chains_.assign(contributors_.size(), std::nullopt);
+  last_own_key_ = 0;
+  contributed_keys_ = 0;
+  for (std::size_t i = 0; i < keys_.size(); ++i) {
+    if (keys_[i].contributor == 0) {
+      last_own_key_ = i;
+    } else {
+      ++contributed_keys_;
+    }
+  }
   graph_ = PoseGraph{};
   graph_.set_nodes(std::move(s.graph_nodes));
   for (const PoseGraphEdge& e : s.graph_edges) graph_.add_edge(e);

@@ -213,6 +213,9 @@ void decode_map_snapshot(std::string_view bytes, GridMap& map) {
 
 namespace {
 
+/// Opens the trailing section of contributed key scans (never a key index).
+constexpr std::uint64_t kContributorsTag = 0xC0417B1D00000001ULL;
+
 void put_slam_state(const SlamState& s, Out& out) {
   // Sized up front: growing by doubling would hold up to three times the key scans' bytes.
   std::size_t size = 256 + 32 * s.trajectory.size() + 24 * s.graph_nodes.size() +
@@ -270,6 +273,14 @@ void put_slam_state(const SlamState& s, Out& out) {
   }
   // Appended only when present, so that a state without one has the layout of before.
   if (s.pending_loop_key) out.put<std::uint64_t>(*s.pending_loop_key);
+  if (!s.contributors.empty()) {
+    out.put<std::uint64_t>(kContributorsTag);
+    out.put<std::uint64_t>(s.contributors.size());
+    for (const std::string& name : s.contributors) {
+      out.put_bytes(std::vector<std::uint8_t>(name.begin(), name.end()));
+    }
+    for (const KeyScan& k : s.keys) out.put(k.contributor);
+  }
 }
 
 }  // namespace
@@ -356,8 +367,23 @@ SlamState decode_slam_state(std::string_view bytes) {
     e.ambiguity = in.get<double>("last_loop.ambiguity");
     s.last_loop = e;
   }
-  if (!in.at_end()) {
-    s.pending_loop_key = static_cast<std::size_t>(in.get<std::uint64_t>("pending_loop_key"));
+  std::optional<std::uint64_t> next;
+  if (!in.at_end()) next = in.get<std::uint64_t>("pending_loop_key");
+  if (next && *next != kContributorsTag) {
+    s.pending_loop_key = static_cast<std::size_t>(*next);
+    next.reset();
+    if (!in.at_end()) next = in.get<std::uint64_t>("contributors.tag");
+  }
+  if (next) {
+    if (*next != kContributorsTag) in.fail("contributors.tag", "unknown section");
+    s.contributors.resize(in.count("contributors", 8));
+    for (std::size_t i = 0; i < s.contributors.size(); ++i) {
+      const std::vector<std::uint8_t> name = in.bytes("contributors[" + std::to_string(i) + "]");
+      s.contributors[i].assign(name.begin(), name.end());
+    }
+    for (std::size_t i = 0; i < s.keys.size(); ++i) {
+      s.keys[i].contributor = in.get<std::uint32_t>("keys[" + std::to_string(i) + "].contributor");
+    }
   }
   in.done();
   return s;

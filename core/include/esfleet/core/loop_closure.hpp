@@ -9,6 +9,7 @@
 // edge.
 
 #include <cstddef>
+#include <cstdint>
 #include <memory>
 #include <optional>
 #include <vector>
@@ -30,7 +31,14 @@ struct KeyScan {
   std::shared_ptr<const ScanPoints> points = std::make_shared<const ScanPoints>();
   Pose2 mapped_pose;         ///< the pose its counters are in the map at
   double path_length = 0.0;  ///< distance travelled from the start to here (estimate), metres
+  /// 0: the leader's own scan; k > 0: contributed by robot SlamState::contributors[k - 1]
+  /// (contribution.hpp). A contributed scan's path_length is kContributedPathLength, so every
+  /// loop-closure search of the leader may use it and none starts from it.
+  std::uint32_t contributor = 0;
 };
+
+/// KeyScan::path_length of a contributed scan: far back along any path.
+inline constexpr double kContributedPathLength = -1e9;
 
 struct LoopClosureConfig {
   bool enabled = true;

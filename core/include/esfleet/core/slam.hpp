@@ -16,8 +16,10 @@
 #include <deque>
 #include <future>
 #include <optional>
+#include <string>
 #include <vector>
 
+#include "esfleet/core/contribution.hpp"
 #include "esfleet/core/es_search.hpp"
 #include "esfleet/core/fitness.hpp"
 #include "esfleet/core/geometry.hpp"
@@ -54,6 +56,8 @@ struct SlamConfig {
   /// A weak match triggers a wide correlative search, and a scan that still agrees poorly with
   /// the map is not written into it (recovery.hpp).
   RecoveryConfig recovery;
+  /// Scans contributed by followers (Slam::contribute; contribution.hpp).
+  ContributionConfig contribution;
 
   /// Throws std::invalid_argument naming the field.
   void validate() const;
@@ -107,6 +111,8 @@ struct SlamState {
   /// A loop-closure search started at this key scan whose result is not applied yet
   /// (LoopClosureConfig::defer_keys); restore() starts it again.
   std::optional<std::size_t> pending_loop_key;
+  /// The robots that contributed key scans (KeyScan::contributor k is contributors[k - 1]).
+  std::vector<std::string> contributors;
 };
 
 /// What Slam::finish did.
@@ -123,6 +129,21 @@ class Slam {
 
   /// Processes one scan. The scan's odometry is read only when use_odometry is on.
   SlamStep process(const LaserScan& scan);
+  /// A scan a follower contributed with its pose (contribution.hpp): checked against the map,
+  /// refined, and when accepted written into the map at the refined pose and added to the
+  /// pose graph. Settles any speculative loop-closure search first. The result depends only
+  /// on the state, the contribution and the seed (the refine draws from its own stream, seeded
+  /// from the seed, the robot and seq), not on thread timing.
+  ContributionResult contribute(const Contribution& c);
+  /// Key scans contributed (accepted) so far.
+  std::size_t contributed_keys() const { return contributed_keys_; }
+  /// The robots that contributed (SlamState::contributors).
+  const std::vector<std::string>& contributors() const { return contributors_; }
+  /// The key scans (mapped pose, contributor; graph order).
+  const std::vector<KeyScan>& keys() const { return keys_; }
+  /// Key scan k's pose in the optimised graph.
+  const Pose2& key_pose(std::size_t k) const { return graph_.node(k); }
+
   /// Once the input has ended: applies a pending loop-closure search and runs the final pass
   /// (LoopClosureConfig::final_pass), which moves past poses and re-writes the map. Further
   /// process() calls are allowed (the map and graph stay consistent). The final pass's searches
@@ -189,6 +210,18 @@ class Slam {
   double path_length_ = 0.0;
 
   std::vector<KeyScan> keys_;
+  /// The leader's own last key scan (contributed ones come in between).
+  std::size_t last_own_key_ = 0;
+  std::vector<std::string> contributors_;
+  std::size_t contributed_keys_ = 0;
+  /// Per contributor (index into contributors_): its last accepted key scan, the pose it
+  /// claimed there, and the travel along its chain since its last anchor edge.
+  struct ContributorChain {
+    std::size_t key = 0;
+    Pose2 claimed;
+    double unanchored_travel = 0.0;
+  };
+  std::vector<std::optional<ContributorChain>> chains_;
   PoseGraph graph_;
   /// For each trajectory entry: the key scan it is anchored to and its pose relative to it.
   std::vector<std::pair<std::size_t, Pose2>> anchors_;
