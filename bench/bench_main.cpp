@@ -12,6 +12,7 @@
 #include <malloc.h>
 
 #include "app/program.hpp"
+#include "contribute_bench.hpp"
 #include "generalise.hpp"
 #include "localise_bench.hpp"
 #include "noisy_odometry.hpp"
@@ -67,6 +68,14 @@ int main(int argc, char** argv) {
       "whose both ends are kept and on relations derived from the reference poses (evaluation "
       "only); one JSON file and a markdown table");
   bench::add_generalise_options(*generalise_cmd, generalise);
+  bench::ContributeBenchOptions contribute;
+  CLI::App* contribute_cmd = cli.add_subcommand(
+      "contribute",
+      "mapping together: the leader maps the first half of a CARMEN log, followers run the "
+      "second half from case (b) starts, localise with no hint and contribute their scans; the "
+      "final map's coverage of the whole-log map and the trajectories' relations error "
+      "(evaluation only)");
+  bench::add_contribute_bench_options(*contribute_cmd, contribute);
   if (auto code = program.parse(argc, argv)) return *code;
   return program.run([&] {
     if (slam_cmd->parsed()) return bench::run_slam_bench(slam);
@@ -75,6 +84,7 @@ int main(int argc, char** argv) {
     if (truth_cmd->parsed()) return bench::run_occupancy_truth(truth);
     if (noisy_cmd->parsed()) return bench::run_noisy_odometry(noisy);
     if (generalise_cmd->parsed()) return bench::run_generalise(generalise);
+    if (contribute_cmd->parsed()) return bench::run_contribute_bench(contribute);
     return static_cast<int>(app::kExitUsage);  // require_subcommand(1): not reached
   });
 }

@@ -11,6 +11,7 @@
 #include "app/localise_params.hpp"
 #include "app/slam_params.hpp"
 #include "app/summary.hpp"
+#include "bench_maps.hpp"
 #include "esfleet/core/file_io.hpp"
 #include "esfleet/core/fitness.hpp"
 #include "esfleet/core/relations.hpp"
@@ -69,18 +70,6 @@ void add_localise_bench_options(CLI::App& cmd, LocaliseBenchOptions& o) {
 }
 
 namespace {
-
-/// A copy of `src` with the coarse levels the localiser needs (what a follower rebuilds).
-GridMap copy_map(const GridMap& src, int pyramid_levels) {
-  GridMapConfig c = src.config();
-  c.pyramid_levels = std::max(c.pyramid_levels, pyramid_levels);
-  GridMap out(c);
-  for (const TileKey k : src.tile_keys()) {
-    const Tile* t = src.find_tile(k);
-    out.set_tile(k, t->version, t->hit, t->err);
-  }
-  return out;
-}
 
 struct PoseError {
   double xy = 0.0, theta_deg = 0.0;

@@ -28,6 +28,29 @@ void ContributionConfig::validate() const {
         "contribution.chain_max_gap, anchor_radius and loop_chain_travel must be >= 0");
 }
 
+void ContributorConfig::validate() const {
+  if (!(min_agreement >= 0.0 && min_agreement <= 1.0)) {
+    throw std::invalid_argument("contribute.min_agreement must be in [0, 1]");
+  }
+  if (!(min_known >= 0.0 && min_known <= 1.0)) {
+    throw std::invalid_argument("contribute.min_known must be in [0, 1]");
+  }
+  if (!(min_travel >= 0.0) || !(min_turn_deg >= 0.0)) {
+    throw std::invalid_argument("contribute.min_travel and min_turn must be >= 0");
+  }
+}
+
+bool worth_contributing(const ContributorConfig& config, const FitnessValue& value,
+                        const Pose2& pose, const std::optional<Pose2>& last_sent) {
+  if (value.agreement() < config.min_agreement || value.known_share() < config.min_known) {
+    return false;
+  }
+  if (!last_sent) return true;
+  const Pose2 d = pose.relative_to(*last_sent);
+  return std::hypot(d.x, d.y) >= config.min_travel ||
+         std::abs(normalize_angle(d.theta)) >= deg_to_rad(config.min_turn_deg);
+}
+
 const char* to_string(ContributionVerdict v) {
   switch (v) {
     case ContributionVerdict::kAccepted:

@@ -12,6 +12,7 @@
 // robot by where the refine put it, so a loop closed by any robot corrects the whole map.
 
 #include <cstdint>
+#include <optional>
 #include <string>
 
 #include "esfleet/core/fitness.hpp"
@@ -82,6 +83,21 @@ struct ContributionResult {
   bool loop_closed = false;      ///< the graph was optimised (an anchor after a long chain)
   bool accepted() const { return verdict == ContributionVerdict::kAccepted; }
 };
+
+/// The follower's side: which of its tracked scans it sends (esfleet-follower --contribute).
+struct ContributorConfig {
+  double min_agreement = 0.8;  ///< the tracked pose's agreement with the map
+  double min_known = 0.5;      ///< ... and its share of end points on known cells
+  double min_travel = 0.1;     ///< since the last scan sent, metres ...
+  double min_turn_deg = 5.0;   ///< ... or degrees (the leader's key-scan spacing)
+  /// Throws std::invalid_argument naming the field ("contribute.<field>").
+  void validate() const;
+};
+
+/// Whether a scan tracked at `pose` with fitness terms `value` is worth sending, the last scan
+/// sent having been at `last_sent` (none yet: only the evidence counts).
+bool worth_contributing(const ContributorConfig& config, const FitnessValue& value,
+                        const Pose2& pose, const std::optional<Pose2>& last_sent);
 
 /// Share of the beams of `points` seen from `pose` that pass through a cell with
 /// hit >= min_hits and hit >= 2 err more than `margin` metres before their end point.
