@@ -40,6 +40,8 @@ std::vector<std::string> leader_argv(const FleetOptions& o, const std::string& b
                                    "--out",
                                    o.out + "/leader"};
   if (resume) argv = with(argv, {"--resume", o.out + "/leader"});
+  if (o.leader_scans > 0) argv = with(argv, {"--max-scans", std::to_string(o.leader_scans)});
+  if (o.contribute) argv = with(argv, {"--accept-contributions"});
   return with(with(argv, dds_args(o, "leader")), split_args(o.leader_args));
 }
 
@@ -59,11 +61,19 @@ std::vector<std::string> on_host(const FleetOptions& o, int host, std::vector<st
 
 std::vector<std::string> follower_argv(const FleetOptions& o, const std::string& bin_dir, int k) {
   const std::string name = robot_name(k);
-  return with(with({bin_dir + "/esfleet-follower", "--scan-topic", name, "--robot-id", name,
-                    "--seed", std::to_string(o.seed + static_cast<unsigned>(k)), "--save-map",
-                    o.out + "/" + name, "--trajectory", o.out + "/" + name + "/trajectory.txt"},
-                   dds_args(o, name)),
-              split_args(o.follower_args));
+  std::vector<std::string> argv = {bin_dir + "/esfleet-follower",
+                                   "--scan-topic",
+                                   name,
+                                   "--robot-id",
+                                   name,
+                                   "--seed",
+                                   std::to_string(o.seed + static_cast<unsigned>(k)),
+                                   "--save-map",
+                                   o.out + "/" + name,
+                                   "--trajectory",
+                                   o.out + "/" + name + "/trajectory.txt"};
+  if (o.contribute) argv = with(argv, {"--contribute"});
+  return with(with(argv, dds_args(o, name)), split_args(o.follower_args));
 }
 
 std::vector<std::string> sim_argv(const FleetOptions& o, const std::string& bin_dir) {

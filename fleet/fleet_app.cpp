@@ -73,7 +73,10 @@ FleetApp::FleetApp(FleetOptions options, const std::atomic<bool>& stop)
     meta_reader_ = std::make_unique<dds::MetaReader>(
         *node_, [this](const msg::MapMeta& m, const dds::SampleMeta&) {
           std::lock_guard lock(mutex_);
-          map_ = MapProgress{m.tile_count(), m.scans(), m.complete()};
+          const std::uint32_t at_complete = map_ && map_->tiles_when_complete > 0
+                                                ? map_->tiles_when_complete
+                                                : (m.complete() ? m.tile_count() : 0);
+          map_ = MapProgress{m.tile_count(), m.scans(), m.complete(), at_complete};
         });
   } catch (const std::exception& e) {
     throw UsageError(fmt::format("DDS readers on domain {}: {}", o_.domain, e.what()));
@@ -322,8 +325,18 @@ int FleetApp::finish(const FleetTimes& times) {
   for (const ChildProcess& f : followers_) {
     stats.push_back(read_stats_json(o_.out + "/" + f.name + "/stats.json"));
   }
-  const FleetSummary s =
-      build_summary(o_, times, failure_, leader_, sim_, followers_, monitor_, stats);
+  FleetSummary s = build_summary(o_, times, failure_, leader_, sim_, followers_, monitor_, stats);
+  // The shared map: tiles when the leader's own mapping ended and at the end (with
+  // --contribute the followers' scans grow it), and what the leader did with contributions.
+  if (const std::optional<MapProgress> m = map_progress()) {
+    s.json["map"] = {{"tiles", m->tiles},
+                     {"tiles_when_leader_done", m->tiles_when_complete},
+                     {"leader_scans", m->scans}};
+  }
+  const nlohmann::json leader_stats = read_stats_json(o_.out + "/leader/stats.json");
+  if (leader_stats.contains("contributions")) {
+    s.json["contributions"] = leader_stats["contributions"];
+  }
   try {
     write_file_atomically(o_.summary_path(), s.json.dump(2) + "\n");
   } catch (const std::exception& e) {

@@ -144,6 +144,14 @@ void add_fleet_flags(CLI::App& cli, FleetOptions& o) {
                "start the simulator and followers only once the leader's map is complete (the "
                "fleet joins a mapped building; scale measurements). Default: all at once, the "
                "followers localise while the map grows");
+  cli.add_flag("--contribute", o.contribute,
+               "map together: the followers contribute their scans once tracking and the leader "
+               "checks and inserts them, so the shared map grows where the leader never was "
+               "(docs/contribute.md); see --leader-scans");
+  cli.add_option("--leader-scans", o.leader_scans,
+                 "the leader maps only the first N scans of --log, then serves its map (and "
+                 "with --contribute grows it with the followers' scans); 0 = the whole log")
+      ->capture_default_str();
   cli.add_option("--view", o.view_port,
                  "also start esfleet-view on this port: the fleet in a browser at "
                  "http://HOST:PORT/ (docs/view.md; 0 = any free port, see OUT/view.log)")

@@ -63,6 +63,12 @@ struct FleetOptions {
   std::string netns;
   /// Start the simulator and the followers only once the leader's map is complete.
   bool wait_map = false;
+  /// Map together (docs/contribute.md): the leader accepts contributed scans
+  /// (--accept-contributions) and every follower contributes its own (--contribute).
+  bool contribute = false;
+  /// The leader maps only the first N scans of --log (--max-scans; 0 = all), then serves and,
+  /// with `contribute`, grows the map with the followers' scans.
+  unsigned long leader_scans = 0;
   /// esfleet-view's port: the fleet in a browser at http://HOST:PORT/ (docs/view.md); -1 = no
   /// view, 0 = any free port (in OUT/view.log).
   int view_port = -1;

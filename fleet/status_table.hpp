@@ -19,6 +19,8 @@ struct MapProgress {
   std::uint32_t tiles = 0;  ///< tiles the map holds
   std::uint32_t scans = 0;  ///< scans inserted so far
   bool complete = false;    ///< the leader's log has ended
+  /// Tiles when the leader's map was first seen complete (its own mapping done); 0 = not yet.
+  std::uint32_t tiles_when_complete = 0;
 };
 
 /// The name of a msg::RobotPose status ("tracking", ...); "-" for kStatusNone and unknowns.

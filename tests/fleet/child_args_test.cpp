@@ -47,6 +47,27 @@ TEST(ChildArgs, ARestartedLeaderResumesItsCheckpoint) {
   EXPECT_EQ(a[2], "a.clf");
 }
 
+TEST(ChildArgs, ContributeMakesTheLeaderAcceptAndEveryFollowerContribute) {
+  FleetOptions o = options();
+  o.contribute = true;
+  o.leader_scans = 994;
+  const Args l = leader_argv(o, "BIN");
+  const auto it = std::find(l.begin(), l.end(), "--max-scans");
+  ASSERT_NE(it, l.end());
+  EXPECT_EQ(*(it + 1), "994");
+  EXPECT_NE(std::find(l.begin(), l.end(), "--accept-contributions"), l.end());
+  for (int k = 1; k <= 3; ++k) {
+    const Args f = follower_argv(o, "BIN", k);
+    EXPECT_NE(std::find(f.begin(), f.end(), "--contribute"), f.end()) << k;
+  }
+  // Without it: neither, and the leader maps the whole log.
+  const Args plain = leader_argv(options(), "BIN");
+  EXPECT_EQ(std::find(plain.begin(), plain.end(), "--accept-contributions"), plain.end());
+  EXPECT_EQ(std::find(plain.begin(), plain.end(), "--max-scans"), plain.end());
+  const Args f = follower_argv(options(), "BIN", 1);
+  EXPECT_EQ(std::find(f.begin(), f.end(), "--contribute"), f.end());
+}
+
 TEST(ChildArgs, NetnsRunsEachProgramOnItsTestbedHost) {
   FleetOptions o = options();
   const Args f = follower_argv(o, "BIN", 2);
