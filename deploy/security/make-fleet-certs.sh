@@ -9,8 +9,10 @@
 # Usage: make-fleet-certs.sh [--days N] [--role ID=ROLE]... [--revoke ID]... OUT_DIR ID...
 # Roles follow from the id: leader -> leader, sim -> simulator, monitor and view -> read-all
 # (esfleet-fleet's monitor, esfleet-view: they subscribe to every topic and may publish none),
-# anything else -> follower (robot); --role ID=leader|sim|monitor|view|follower overrides that
-# for one id. Ids: letters, digits, '-', '_', '.' (they become partition names).
+# anything else -> follower (robot); --role ID=leader|sim|monitor|view|follower|contributor
+# overrides that for one id. A contributor is a follower that may also send its scans to the
+# leader's map (esfleet-follower --contribute, docs/contribute.md); a plain follower may not.
+# Ids: letters, digits, '-', '_', '.' (they become partition names).
 # Rerunning with an existing OUT_DIR reuses its CAs (adding a robot = rerun with its id; the other
 # robots' files stay valid). --revoke ID adds ID's certificate to the identity CA's CRL and
 # writes OUT_DIR/<every id>/crl.pem (docs/security.md: how revocation works and what it costs).
@@ -24,7 +26,7 @@ while [[ $# -gt 0 && $1 == --* ]]; do
     --days) days=$2; shift 2 ;;
     --revoke) revoke+=("$2"); shift 2 ;;
     --role) role[${2%%=*}]=${2#*=}; shift 2 ;;
-    --help | -h) sed -n '2,16p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    --help | -h) sed -n '2,18p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "make-fleet-certs.sh: unknown option $1" >&2; exit 2 ;;
   esac
 done
@@ -44,8 +46,8 @@ for id in "${ids[@]}" "${revoke[@]}"; do
 done
 
 for id in "${!role[@]}"; do
-  case ${role[$id]} in leader | sim | monitor | view | follower) ;;
-    *) echo "make-fleet-certs.sh: --role $id=${role[$id]}: leader, sim, monitor, view or follower" >&2
+  case ${role[$id]} in leader | sim | monitor | view | follower | contributor) ;;
+    *) echo "make-fleet-certs.sh: --role $id=${role[$id]}: leader, sim, monitor, view, follower or contributor" >&2
        exit 2 ;;
   esac
 done
@@ -133,7 +135,9 @@ rules_for() {  # id
     leader)
       criteria publish '*' esfleet/map/tiles esfleet/map/tile_deltas esfleet/map/meta
       criteria publish "$id" esfleet/robots/pose esfleet/robots/scan
-      criteria subscribe '*' esfleet/robots/scan esfleet/robots/pose esfleet/map/meta
+      criteria subscribe '*' esfleet/robots/scan esfleet/robots/pose esfleet/map/meta \
+        esfleet/robots/contribution
+      criteria publish '*' esfleet/robots/contribution_status
       ;;
     sim)
       criteria publish 'sim' esfleet/sim/truth
@@ -143,10 +147,14 @@ rules_for() {  # id
     monitor | view)  # read everything, publish nothing
       criteria subscribe '*' 'esfleet/*'
       ;;
-    follower)
+    follower | contributor)
       criteria subscribe '*' esfleet/map/tiles esfleet/map/tile_deltas esfleet/map/meta
       criteria publish "$id" esfleet/robots/pose esfleet/robots/scan
       criteria subscribe "$id" esfleet/robots/scan
+      if [[ $(role_of "$id") == contributor ]]; then
+        criteria publish "$id" esfleet/robots/contribution
+        criteria subscribe '*' esfleet/robots/contribution_status
+      fi
       ;;
     *) echo "make-fleet-certs.sh: unknown role '$(role_of "$id")' of $id" >&2; exit 2 ;;
   esac
@@ -156,7 +164,8 @@ rules_for() {  # id
 robots=()
 for d in "$out"/*/ "${ids[@]/#/$out/}"; do
   id=$(basename "$d")
-  [[ $id == ca || $(role_of "$id") != follower ]] && continue
+  [[ $id == ca ]] && continue
+  case $(role_of "$id") in follower | contributor) ;; *) continue ;; esac
   [[ -d $d || " ${ids[*]} " == *" $id "* ]] || continue
   [[ " ${robots[*]} " == *" $id "* ]] || robots+=("$id")
 done
