@@ -50,6 +50,12 @@ void add_contribute_bench_options(CLI::App& cmd, ContributeBenchOptions& o) {
   cmd.add_option("--contribute-min-agreement", o.contributor.min_agreement,
                  "a follower sends a tracked scan whose agreement with the map is at least this")
       ->capture_default_str();
+  cmd.add_option("--claim-offset", o.claim_offset,
+                 "dx,dy,dtheta_deg added to every pose a follower claims (robots whose pose is "
+                 "wrong: what the leader's checks catch)")
+      ->delimiter(',')
+      ->expected(3)
+      ->capture_default_str();
   cmd.add_option("--png", o.png, "write the final map with the combined trajectory here");
   cmd.add_option("--output", o.output, "JSON file for the figures")->capture_default_str();
   cmd.add_flag("--json", o.json, "last line of stdout is the JSON object");
@@ -222,7 +228,8 @@ int run_contribute_bench(ContributeBenchOptions& o) {
     c.robot = r.id;
     c.seq = r.seq++;
     c.scan = scans[j];
-    c.pose = step.pose;
+    c.pose = {step.pose.x + o.claim_offset[0], step.pose.y + o.claim_offset[1],
+              normalize_angle(step.pose.theta + deg_to_rad(o.claim_offset[2]))};
     r.last_sent = step.pose;
     ++r.sent;
     r.bytes += 2 * c.scan.ranges.size() + 128;  // ranges in mm + header, as on the wire
@@ -288,6 +295,7 @@ int run_contribute_bench(ContributeBenchOptions& o) {
                               {"robots", robots.size()},
                               {"contribute", o.contribute},
                               {"seed", o.seed},
+                              {"claim_offset", o.claim_offset},
                               {"coverage", coverage(full.map(), lead.map(), 2)},
                               {"coverage_strict", coverage(full.map(), lead.map(), 0)},
                               {"coverage_leader_alone", leader_coverage},

@@ -14,6 +14,7 @@
 #include <CLI/CLI.hpp>
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "app/param_table.hpp"
 #include "esfleet/core/carmen_reader.hpp"
@@ -34,7 +35,10 @@ struct ContributeBenchOptions {
   int lead_in = 200;
   double leader_share = 0.5;  ///< the part of the log the leader maps
   bool contribute = true;     ///< off: the followers only localise (the baseline)
-  std::string png;            ///< the final map with the combined trajectory
+  /// Added to every pose a follower claims (x, y metres, theta degrees; map frame): robots
+  /// whose pose is wrong, to measure what the leader's checks catch.
+  std::vector<double> claim_offset = {0.0, 0.0, 0.0};
+  std::string png;  ///< the final map with the combined trajectory
   std::string output = "esfleet-bench-contribute.json";
   bool json = false;
   SlamConfig slam;
