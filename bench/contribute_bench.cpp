@@ -100,7 +100,7 @@ struct Robot {
   std::optional<Pose2> last_sent;
   std::uint32_t seq = 0;
   std::vector<std::optional<Pose2>> tracked;  ///< per scan of the log
-  std::size_t sent = 0, accepted = 0, bytes = 0;
+  std::size_t sent = 0, accepted = 0, redundant = 0, bytes = 0;
   std::map<std::string, std::size_t> rejected;
   std::size_t scans_to_pose = 0;
   bool declared = false;
@@ -238,6 +238,8 @@ int run_contribute_bench(ContributeBenchOptions& o) {
     cpu_ms.push_back((thread_cpu_seconds() - t0) * 1e3);
     if (res.accepted()) {
       ++r.accepted;
+    } else if (!res.rejected()) {
+      ++r.redundant;
     } else {
       ++r.rejected[to_string(res.verdict)];
     }
@@ -271,6 +273,7 @@ int run_contribute_bench(ContributeBenchOptions& o) {
                            {"tracked", traj.size()},
                            {"sent", r.sent},
                            {"accepted", r.accepted},
+                           {"redundant", r.redundant},
                            {"rejected", rejected},
                            {"rejected_by", r.rejected},
                            {"uplink_bytes_per_s", seconds > 0 ? r.bytes / seconds : 0.0},
@@ -319,11 +322,12 @@ int run_contribute_bench(ContributeBenchOptions& o) {
   for (const nlohmann::json& r : robots_json) {
     std::printf(
         "  %s scans %d-%d: pose after %d scans, %d tracked, %d sent, %d accepted, "
-        "%d rejected, %.0f B/s, relations %.3f m (%d)\n",
+        "%d redundant, %d rejected, %.0f B/s, relations %.3f m (%d)\n",
         r["robot"].get<std::string>().c_str(), r["start"].get<int>(), r["end"].get<int>() - 1,
         r["scans_to_pose"].get<int>(), r["tracked"].get<int>(), r["sent"].get<int>(),
-        r["accepted"].get<int>(), r["rejected"].get<int>(), r["uplink_bytes_per_s"].get<double>(),
-        r["relations"]["trans_mean_m"].get<double>(), r["relations"]["matched"].get<int>());
+        r["accepted"].get<int>(), r["redundant"].get<int>(), r["rejected"].get<int>(),
+        r["uplink_bytes_per_s"].get<double>(), r["relations"]["trans_mean_m"].get<double>(),
+        r["relations"]["matched"].get<int>());
   }
   std::printf(
       "  followers' trajectory %.3f m (%zu relations), combined %.3f m (%zu), whole-log "

@@ -24,6 +24,8 @@ void ContributionConfig::validate() const {
   check(chain_sigma_xy > 0.0 && chain_sigma_theta_deg > 0.0 && anchor_sigma_xy > 0.0 &&
             anchor_sigma_theta_deg > 0.0,
         "contribution sigmas must be > 0");
+  check(redundant_xy >= 0.0 && redundant_theta_deg >= 0.0,
+        "contribution.redundant_xy and redundant_theta must be >= 0");
   check(chain_max_gap >= 0.0 && anchor_radius >= 0.0 && loop_chain_travel >= 0.0,
         "contribution.chain_max_gap, anchor_radius and loop_chain_travel must be >= 0");
 }
@@ -65,6 +67,8 @@ const char* to_string(ContributionVerdict v) {
       return "refine_moved";
     case ContributionVerdict::kContradicts:
       return "contradicts";
+    case ContributionVerdict::kRedundant:
+      return "redundant";
   }
   return "unknown";
 }

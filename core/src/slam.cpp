@@ -505,6 +505,28 @@ ContributionResult Slam::contribute(const Contribution& c) {
     r.verdict = ContributionVerdict::kDisagrees;
     return r;
   }
+  // Where a key scan already is, one more adds little: skipped before the refine's cost. Not
+  // against the contributor's own recent scans: in new space it must extend the map at the
+  // key-scan spacing to keep tracking there.
+  if (cc.redundant_xy > 0.0) {
+    const double turn = deg_to_rad(cc.redundant_theta_deg);
+    std::uint32_t own = 0;
+    for (std::size_t i = 0; i < contributors_.size(); ++i) {
+      if (contributors_[i] == c.robot) own = static_cast<std::uint32_t>(i + 1);
+    }
+    for (std::size_t i = 0; i < keys_.size(); ++i) {
+      if (own != 0 && keys_[i].contributor == own &&
+          c.scan.stamp - keys_[i].stamp < cc.redundant_own_after_s) {
+        continue;
+      }
+      const Pose2& p = graph_.node(i);
+      if (std::hypot(p.x - c.pose.x, p.y - c.pose.y) <= cc.redundant_xy &&
+          std::abs(normalize_angle(p.theta - c.pose.theta)) <= turn) {
+        r.verdict = ContributionVerdict::kRedundant;
+        return r;
+      }
+    }
+  }
   // 2. The same ES, started at the claimed pose, moves it only a little. Its own draws: the
   // SLAM's stream stays as it is, and the same contribution refines the same way.
   std::uint64_t h = 1469598103934665603ULL;

@@ -68,11 +68,11 @@ std::vector<std::pair<TileKey, std::uint64_t>> versions(const GridMap& map) {
 }
 
 /// A follower turning on the spot at (6, 3.8) from facing ahead to facing back, contributing
-/// every 0.15 rad.
+/// every 0.2 rad (11.5 degrees: none redundant with the one before).
 std::vector<ContributionResult> turn_and_contribute(Slam& slam, const std::string& robot) {
   std::vector<ContributionResult> results;
   std::uint32_t seq = 0;
-  for (double th = 0.3; th <= std::numbers::pi; th += 0.15) {
+  for (double th = 0.3; th <= std::numbers::pi; th += 0.2) {
     const Pose2 p{6.0, 3.8, th};
     results.push_back(slam.contribute(contribution(p, p, seq++, robot)));
   }
@@ -121,6 +121,36 @@ TEST(Contribution, AWrongPoseIsRejectedAndTheMapStaysAsItWas) {
   EXPECT_EQ(versions(slam.map()), map_before);
   // The right pose of the same scan is accepted.
   EXPECT_TRUE(slam.contribute(contribution({7.0, 3.0, 0.2}, {7.0, 3.0, 0.2}, 4)).accepted());
+}
+
+TEST(Contribution, AScanWhereAKeyScanAlreadyIsIsSkippedNotRejected) {
+  Slam slam = leader_of_right_half();
+  const Pose2 p{6.0, 3.8, 0.8};
+  ASSERT_TRUE(slam.contribute(contribution(p, p, 1)).accepted());
+  const auto map_before = versions(slam.map());
+  // Another robot 0.1 m and 5 degrees from the scan just inserted.
+  const Pose2 q{6.1, 3.8, 0.8 + deg_to_rad(5.0)};
+  const ContributionResult r = slam.contribute(contribution(q, q, 2, "robot2"));
+  EXPECT_EQ(r.verdict, ContributionVerdict::kRedundant);
+  EXPECT_FALSE(r.accepted());
+  EXPECT_FALSE(r.rejected());
+  EXPECT_EQ(versions(slam.map()), map_before);
+  EXPECT_EQ(slam.contributed_keys(), 1u);
+  // A wrong pose there is still a rejection, not a skip.
+  const ContributionResult wrong = slam.contribute(contribution(q, {6.1, 3.3, 1.0}, 3, "robot2"));
+  EXPECT_TRUE(wrong.rejected()) << to_string(wrong.verdict);
+  // The contributor's own recent scans do not count: in new space it extends the map at the
+  // key-scan spacing.
+  EXPECT_TRUE(slam.contribute(contribution(q, q, 4)).accepted());
+  // With the check off, the same scan is inserted.
+  SlamConfig off;
+  off.contribution.redundant_xy = 0.0;
+  Slam all(off);
+  const auto world = asymmetric_room();
+  int i = 0;
+  for (double x = 5.0; x <= 10.0; x += 0.1) all.process(make_scan(world, {x, 3.8, 0.0}, 0.2 * i++));
+  ASSERT_TRUE(all.contribute(contribution(p, p, 1)).accepted());
+  EXPECT_TRUE(all.contribute(contribution(q, q, 2, "robot2")).accepted());
 }
 
 TEST(Contribution, BeamsThroughCellsSeenOccupiedManyTimesContradictTheMap) {

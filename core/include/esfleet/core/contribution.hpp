@@ -39,6 +39,15 @@ struct ContributionConfig {
   double max_contradiction = 0.05;
   /// Fewer valid beams than this: refused.
   int min_beams = 20;
+  /// A scan that passed check 1 within this distance and turn of a key scan already in the
+  /// graph adds little and is skipped (kRedundant, neither accepted nor rejected): the key
+  /// scans, the graph and the leader's work then grow with the area mapped, not with the time
+  /// robots drive through it. 0 = every scan is inserted.
+  double redundant_xy = 0.3;          ///< metres
+  double redundant_theta_deg = 10.0;  ///< degrees
+  /// The contributor's own key scans count only once they are this old (scan stamps): in new
+  /// space it extends the map at the key-scan spacing, which it needs to keep tracking.
+  double redundant_own_after_s = 60.0;
   /// Graph: the edge to the contributor's previous accepted scan (its own motion, if the two
   /// are at most chain_max_gap apart) and the edge to the nearest key scan of another robot
   /// within anchor_radius (where the refine put it).
@@ -70,6 +79,7 @@ enum class ContributionVerdict : std::uint8_t {
   kDisagrees,     ///< agreement below min_agreement
   kRefineMoved,   ///< the refine moved the pose too far
   kContradicts,   ///< beams through cells seen occupied many times
+  kRedundant,     ///< agrees, but a key scan is already this close: skipped, not a rejection
 };
 const char* to_string(ContributionVerdict v);
 
@@ -82,6 +92,10 @@ struct ContributionResult {
   float contradiction = 0.0f;    ///< share of beams through cells seen occupied many times
   bool loop_closed = false;      ///< the graph was optimised (an anchor after a long chain)
   bool accepted() const { return verdict == ContributionVerdict::kAccepted; }
+  /// Refused: the scan does not fit the map (kRedundant and kAccepted are not).
+  bool rejected() const {
+    return verdict != ContributionVerdict::kAccepted && verdict != ContributionVerdict::kRedundant;
+  }
 };
 
 /// The follower's side: which of its tracked scans it sends (esfleet-follower --contribute).
