@@ -61,13 +61,14 @@ class ContributionIntake {
     std::uint64_t stale = 0;
     std::uint64_t malformed = 0;
     std::vector<double> cpu_ms;  ///< thread CPU of each Slam::contribute call
-    std::unique_ptr<dds::ContributionStatusWriter> status;  ///< in the robot's partition
+    /// In the robot's partition; null when it could not be created (DDS Security).
+    std::unique_ptr<dds::ContributionStatusWriter> status;
     std::chrono::steady_clock::time_point last_log;
     std::uint64_t logged = 0;  ///< tally.accepted + tally.rejected at the last line
   };
   void on_sample(const msg::ContributedScan& m);
-  /// The robot's entry, created (with its status writer) on first use; nullptr beyond
-  /// dds::kMaxRobots robots or when the writer cannot be created.
+  /// The robot's entry, created (with its status writer, if Fast DDS allows it) on first use;
+  /// nullptr beyond dds::kMaxRobots robots.
   Robot* robot(const std::string& id);
   void handle(Slam& slam, const msg::ContributedScan& m);
   void log_robot(const std::string& id, Robot& r);
