@@ -4,6 +4,7 @@
 
 #include <csignal>
 #include <filesystem>
+#include <optional>
 #include <thread>
 
 #include "app/program.hpp"
@@ -66,6 +67,9 @@ FollowerApp::FollowerApp(FollowerOptions options, const std::atomic<bool>& stop)
     }
     if (o_.ros.any()) open_ros();
     if (source_) pose_writer_ = std::make_unique<dds::PoseWriter>(*node_, o_.robot_id);
+    if (o_.contribute.enabled) {
+      contributor_ = std::make_unique<Contributor>(*node_, o_.robot_id, o_.contribute);
+    }
   });
   spdlog::info("following map '{}' on DDS domain {}", o_.map_id.empty() ? "(any)" : o_.map_id,
                o_.domain);
@@ -76,11 +80,23 @@ FollowerApp::FollowerApp(FollowerOptions options, const std::atomic<bool>& stop)
                                           : "ROS topic " + o_.ros.scan_topic,
                  o_.localiser.hint ? "hinted" : "global", o_.parameter_changes);
   }
+  if (contributor_) {
+    const ContributorConfig& c = o_.contribute;
+    spdlog::info(
+        "contributing tracked scans on {} (agreement >= {}, known >= {}, every {} m or {} deg); "
+        "relocalising after {} refused in a row{}",
+        dds::kContributionTopic, c.min_agreement, c.min_known, c.min_travel, c.min_turn_deg,
+        c.max_rejections,
+        o_.contribute_pose_offset.empty()
+            ? ""
+            : "; TEST: pose offset " + o_.contribute_pose_offset + " added to every claim");
+  }
 }
 
 // Members in reverse: the pose writer, the scan source (its reader) and the map readers go
 // before the participant.
 FollowerApp::~FollowerApp() {
+  contributor_.reset();
   initial_pose_.reset();
   ros_pose_.reset();
   pose_writer_.reset();
@@ -130,6 +146,9 @@ int FollowerApp::run() {
         "scan topic: {} received, {} malformed, {} missing (seq gaps), {} skipped for newer "
         "ones ({} while tracking)",
         t.received, t.malformed, t.seq_gaps, t.dropped, dropped_tracking_);
+  }
+  if (contributor_ && contributor_->sent() > 0 && scans_ended_ && !stop_.load()) {
+    settle_contributions();
   }
   if (pose_writer_) pose_writer_->wait_for_acknowledgments(std::chrono::milliseconds(500));
   const bool saved = save(stop_.load()   ? "signal"
@@ -190,6 +209,10 @@ bool FollowerApp::next_scan() {
   if (auto scan = source_->poll(stop_)) {
     const LocaliserStep step = localisation_.process(map_->replica(), *scan);
     publish_ros_pose(*scan, step);
+    if (contributor_) {
+      contributor_->after_scan(*scan, step, was_tracking, map_->replica());
+      if (contributor_->take_relocalise()) localisation_.reset();
+    }
     if (pose_writer_) {
       pose_writer_->write(dds::pose_to_msg(o_.robot_id, {scan->stamp, step.pose},
                                            step.value.fitness, status_of(step.state)));
@@ -208,6 +231,28 @@ bool FollowerApp::next_scan() {
     return false;
   }
   return true;
+}
+
+void FollowerApp::settle_contributions() {
+  using Clock = std::chrono::steady_clock;
+  const auto until = Clock::now() + std::chrono::duration<double>(o_.contribute.settle_s);
+  std::optional<Clock::time_point> settled_since;  // answered and the map complete
+  while (!stop_.load() && Clock::now() < until) {
+    map_->spin_once(std::chrono::milliseconds(50));
+    if (contributor_->take_relocalise()) localisation_.reset();
+    const bool settled = contributor_->answered() && map_->replica().complete();
+    if (!settled) {
+      settled_since.reset();
+    } else if (!settled_since) {
+      settled_since = Clock::now();
+    } else if (Clock::now() - *settled_since >= std::chrono::seconds(1)) {
+      return;  // the tiles of the last answer had a second to arrive
+    }
+  }
+  spdlog::warn(
+      "contributions: no answer to the last of {} contributed scans, or not the "
+      "complete map, within {} s",
+      contributor_->sent(), o_.contribute.settle_s);
 }
 
 void FollowerApp::watch_leader() {
@@ -316,6 +361,7 @@ nlohmann::json FollowerApp::stats_json(const char* why) const {
     }
     j["localisation"] = std::move(loc);
   }
+  if (contributor_) j["contribution"] = contributor_->json();
   if (ros_scan_ != nullptr) {
     j["ros_scan"] = ros_scan_->stats().json();
     j["ros_scan"]["topic"] = o_.ros.scan_topic;

@@ -15,6 +15,7 @@
 #include "app/ros_pose_output.hpp"
 #include "app/ros_scan_source.hpp"
 #include "app/scan_source.hpp"
+#include "contributor.hpp"
 #include "esfleet/dds/node.hpp"
 #include "esfleet/dds/writer.hpp"
 #include "follower_options.hpp"
@@ -49,6 +50,9 @@ class FollowerApp {
   void open_ros();
   /// After a scan: the pose and TF for ROS 2 tools, while tracking.
   void publish_ros_pose(const LaserScan& scan, const LocaliserStep& step);
+  /// --contribute, after the scans: waits (bounded) for the leader's answer to the last
+  /// contribution and for its map with it, so that the saved map is the leader's final one.
+  void settle_contributions();
   void warn_no_map() const;
   void report() const;
   /// Saves the map files, stats.json and the trajectory; false on any failure.
@@ -66,6 +70,7 @@ class FollowerApp {
   std::unique_ptr<dds::PoseWriter> pose_writer_;
   std::unique_ptr<app::RosPoseOutput> ros_pose_;    ///< --ros
   std::unique_ptr<InitialPoseInput> initial_pose_;  ///< --ros
+  std::unique_ptr<Contributor> contributor_;        ///< --contribute
   SelfLocalisation localisation_;
   LeaderWatch leader_;
   double first_tile_s_ = -1.0;

@@ -1,7 +1,9 @@
 #include "follower_options.hpp"
 
 #include <cmath>
+#include <sstream>
 #include <stdexcept>
+#include <vector>
 
 #include "app/dds_flags.hpp"
 #include "app/localise_params.hpp"
@@ -30,6 +32,31 @@ void FollowerOptions::validate() const {
     throw std::invalid_argument("--ros publishes this robot's pose: it needs its scans");
   }
   ros.validate(robot_id);
+  contribute.validate();
+  if (contribute.enabled && !has_scans()) {
+    throw std::invalid_argument("--contribute sends this robot's scans: it needs its scans");
+  }
+}
+
+Pose2 parse_pose_offset(const std::string& text) {
+  auto fail = [&] {
+    throw std::invalid_argument("--contribute-pose-offset '" + text +
+                                "': expected dx,dy,dtheta_deg (metres, metres, degrees)");
+  };
+  std::vector<double> v;
+  std::stringstream in(text);
+  std::string part;
+  while (std::getline(in, part, ',')) {
+    try {
+      std::size_t used = 0;
+      v.push_back(std::stod(part, &used));
+      if (used != part.size() || !std::isfinite(v.back())) fail();
+    } catch (const std::logic_error&) {
+      fail();
+    }
+  }
+  if (v.size() != 3 || text.back() == ',') fail();
+  return Pose2{v[0], v[1], deg_to_rad(v[2])};
 }
 
 void add_follower_flags(CLI::App& cli, FollowerOptions& o, app::ParamTable& params) {
@@ -76,6 +103,28 @@ void add_follower_flags(CLI::App& cli, FollowerOptions& o, app::ParamTable& para
                "hold the scans until the leader's map is complete (tests, benchmarks)");
   cli.add_option("--trajectory", o.trajectory_path,
                  "write the tracked poses (stamp x y theta per line) to this file at exit");
+  auto* c = cli.add_option_group("Contributed scans",
+                                 "Send tracked scans to a leader run with --accept-contributions");
+  c->add_flag("--contribute", o.contribute.enabled,
+              "while tracking, send scans with strong evidence and the pose to the leader, "
+              "which writes the ones it accepts into the shared map; relocalise when it refuses "
+              "too many in a row");
+  c->add_option("--contribute-min-agreement", o.contribute.min_agreement,
+                "send only scans whose tracked pose agrees at least this much with the map "
+                "(and with at least half the end points on known cells)")
+      ->capture_default_str();
+  c->add_option("--contribute-min-travel", o.contribute.min_travel,
+                "send a scan once the robot moved this far (m) since the last one sent ...")
+      ->capture_default_str();
+  c->add_option("--contribute-min-turn", o.contribute.min_turn_deg,
+                "... or turned this much (degrees)")
+      ->capture_default_str();
+  c->add_option("--contribute-max-rejections", o.contribute.max_rejections,
+                "relocalise when the leader refused this many scans in a row")
+      ->capture_default_str();
+  c->add_option("--contribute-pose-offset", o.contribute_pose_offset,
+                "test aid: add dx,dy,dtheta_deg to the pose sent with each scan (a robot whose "
+                "pose is wrong)");
   app::add_slam_params(params, &o.slam, &o.reader);
   app::add_localise_params(params, &o.localiser);
   params.bind(cli, "Localisation parameters (tracking uses the SLAM's)");
@@ -87,6 +136,9 @@ void finish_follower_options(FollowerOptions& o, app::ParamTable& params) {
   if (!o.hint.empty()) o.localiser.hint = app::parse_hint(o.hint);
   o.localiser.tracking = o.slam.tracking;
   o.localiser.seed = o.slam.seed;
+  if (!o.contribute_pose_offset.empty()) {
+    o.contribute.pose_offset = parse_pose_offset(o.contribute_pose_offset);
+  }
   o.validate();
 }
 

@@ -12,6 +12,7 @@
 
 #include "app/param_table.hpp"
 #include "app/ros_options.hpp"
+#include "contributor.hpp"
 #include "esfleet/core/carmen_reader.hpp"
 #include "esfleet/core/localiser.hpp"
 #include "esfleet/core/slam.hpp"
@@ -43,6 +44,10 @@ struct FollowerOptions {
   bool latest_only = true;            ///< scan topic: skip to the newest waiting scan
   bool wait_complete = false;         ///< hold the scans until the leader's map is complete
 
+  // --- contributed scans (contributor.hpp) ---
+  ContributorConfig contribute;
+  std::string contribute_pose_offset;  ///< tests: "dx,dy,dtheta_deg"; parsed into contribute
+
   // --- ROS 2 (docs/ros2.md) ---
   app::RosOptions ros;
   // --- localisation ---
@@ -65,5 +70,9 @@ void add_follower_flags(CLI::App& cli, FollowerOptions& o, app::ParamTable& para
 /// After parsing: applies the parameter file and flags, the hint and the seed, and validates.
 /// Throws std::invalid_argument or app::UsageError naming the flag, file or line.
 void finish_follower_options(FollowerOptions& o, app::ParamTable& params);
+
+/// "dx,dy,dtheta_deg" as a pose offset (theta in radians). Throws std::invalid_argument naming
+/// --contribute-pose-offset for anything else.
+Pose2 parse_pose_offset(const std::string& text);
 
 }  // namespace esfleet::follower

@@ -68,6 +68,13 @@ LocaliserStep SelfLocalisation::process(const mapshare::MapReplica& replica,
   return step;
 }
 
+void SelfLocalisation::reset() {
+  localiser_.reset();
+  ++resets_;
+  cpu_s_localising_ = 0.0;
+  scans_localising_ = 0;
+}
+
 nlohmann::json SelfLocalisation::json(const std::string& robot_id) const {
   const app::Summary tr = app::summarize(stats_.tracking_cpu_ms);
   nlohmann::json j = {{"robot_id", robot_id},
@@ -81,6 +88,7 @@ nlohmann::json SelfLocalisation::json(const std::string& robot_id) const {
                       {"cpu_s_to_first_pose", stats_.cpu_s_to_first_pose},
                       {"scans_to_first_pose", stats_.scans_to_first_pose},
                       {"tracked_scans", trajectory_.size()},
+                      {"resets", resets_},
                       {"tracking_cpu_ms_median", tr.median},
                       {"tracking_cpu_ms_p95", tr.p95}};
   if (stats_.first_pose) {

@@ -42,6 +42,11 @@ class SelfLocalisation {
   LocaliserState state() const { return localiser_.state(); }
   /// Localise afresh around `hint` (/initialpose); see Localiser::set_hint.
   void set_hint(const PoseHint& hint) { localiser_.set_hint(hint); }
+  /// Forget the pose and search globally again (Localiser::reset): the leader keeps refusing
+  /// this robot's contributed scans, so its pose is likely wrong. Counted (resets()).
+  void reset();
+  /// reset() calls so far.
+  std::size_t resets() const { return resets_; }
   /// The last step (default before the first scan).
   const LocaliserStep& last_step() const { return last_; }
   const LocalisationStats& stats() const { return stats_; }
@@ -58,6 +63,7 @@ class SelfLocalisation {
   std::optional<std::uint32_t> epoch_;  ///< of the map localised in
   double cpu_s_localising_ = 0.0;       ///< since localising (re)started
   std::size_t scans_localising_ = 0;
+  std::size_t resets_ = 0;
 };
 
 /// The pose topic's status code of a localiser state.

@@ -228,6 +228,10 @@ void LeaderApp::open_dds() {
     publisher_ = std::make_unique<MapPublisher>(
         *node_, mapshare::MapIdentity{*o_.map_id, *o_.epoch}, o_.robot_id, o_.encoding,
         mapshare::DeltaPolicy{o_.full_every, o_.full_period});
+    if (o_.accept_contributions) {
+      intake_ = std::make_unique<ContributionIntake>(*node_,
+                                                     mapshare::MapIdentity{*o_.map_id, *o_.epoch});
+    }
     if (!o_.scan_robot.empty()) {
       auto t = std::make_unique<app::TopicScanSource>(*node_, o_.scan_robot, o_.idle_exit);
       topic_ = t.get();
@@ -237,6 +241,10 @@ void LeaderApp::open_dds() {
   if (o_.ros.any()) open_ros();
   spdlog::info("sharing map '{}' epoch {} on DDS domain {}{}", *o_.map_id, *o_.epoch, o_.domain,
                o_.profile.empty() ? "" : " with profile " + o_.profile);
+  if (intake_) {
+    spdlog::info("accepting the scans followers contribute on {} (answers on {})",
+                 dds::kContributionTopic, dds::kContributionStatusTopic);
+  }
   if (topic_ != nullptr) {
     spdlog::info("mapping the scans of robot '{}' from {}; {}", o_.scan_robot, dds::kScanTopic,
                  o_.idle_exit > 0 ? fmt::format("ending {} s after the last one", o_.idle_exit)
@@ -288,8 +296,10 @@ void LeaderApp::open_checkpoints() {
 
 void LeaderApp::publish(bool complete, float fitness) {
   if (checkpoints_) checkpoints_->reserve(slam_.map());
-  publisher_->publish(slam_.map(), slam_.trajectory().back(), fitness, complete,
-                      static_cast<std::uint32_t>(slam_.scans_processed()), params_json_);
+  // Contributed key scans count as scans of the map (the summary's progress).
+  publisher_->publish(
+      slam_.map(), slam_.trajectory().back(), fitness, complete,
+      static_cast<std::uint32_t>(slam_.scans_processed() + slam_.contributed_keys()), params_json_);
   if (ros_map_) ros_map_->publish(slam_.map(), slam_.trajectory().back().stamp, complete);
 }
 
@@ -297,6 +307,8 @@ void LeaderApp::on_scan(const LaserScan& scan, const SlamStep& step, std::size_t
   if (!first_stamp_) first_stamp_ = scan.stamp;
   if (checkpoints_) checkpoints_->after_scan(slam_);
   last_stamp_ = scan.stamp;
+  // Contributions between own scans: their tiles go out with the next publish.
+  if (intake_) intake_->process(slam_);
   if (ros_pose_) {
     const double cpu0 = thread_cpu_seconds();
     ros_pose_->publish(TimedPose{scan.stamp, step.pose}, scan.odometry,
@@ -345,13 +357,7 @@ int LeaderApp::run() {
   if (stats.interrupted) {
     spdlog::warn("interrupted after {} scans: saving what we have", stats.scans);
   }
-  const nlohmann::json extra = extra_stats(stats);
-  try {
-    write_slam_outputs(o_.out_dir, slam_, stats, extra);
-  } catch (const std::exception& e) {
-    spdlog::error("writing results to {}: {}", o_.out_dir, e.what());
-    return app::kExitFailure;
-  }
+  if (!write_outputs(stats)) return app::kExitFailure;
   const app::Summary ms = app::summarize(stats.ms_per_scan);
   spdlog::info("{} scans in {:.1f} s: {:.2f} ms/scan median, {:.2f} p95, {:.2f} max; wrote {}",
                stats.scans, stats.wall_s, ms.median, ms.p95, ms.max, o_.out_dir);
@@ -364,11 +370,34 @@ int LeaderApp::run() {
         "dropped scans, a fast robot), try --recovery on (docs/slam.md)",
         stats.weak_matches, stats.scans);
   }
-  if (publisher_ && !stats.interrupted) serve(stats);
+  if (publisher_ && !stats.interrupted) {
+    const std::size_t accepted = serve(stats);
+    if (intake_) {
+      // Contributions may have changed the map while serving, and their counts did: the
+      // results again, as they are now.
+      if (checkpoints_ && accepted > 0) checkpoints_->save(slam_, "contributions after the input");
+      if (!write_outputs(stats)) return app::kExitFailure;
+      spdlog::info(
+          "wrote {} again: {} contributions accepted while serving; the map holds {} "
+          "contributed scans in {} tiles",
+          o_.out_dir, accepted, slam_.contributed_keys(), slam_.map().tile_count());
+    }
+  }
   if (publisher_ && !publisher_->flush(std::chrono::seconds(2))) {
     spdlog::warn("not every follower acknowledged the last samples");
   }
   return stats.interrupted ? app::kExitInterrupted : app::kExitOk;
+}
+
+bool LeaderApp::write_outputs(const SlamRunStats& stats) {
+  const nlohmann::json extra = extra_stats(stats);
+  try {
+    write_slam_outputs(o_.out_dir, slam_, stats, extra);
+  } catch (const std::exception& e) {
+    spdlog::error("writing results to {}: {}", o_.out_dir, e.what());
+    return false;
+  }
+  return true;
 }
 
 nlohmann::json LeaderApp::extra_stats(const SlamRunStats& stats) {
@@ -417,6 +446,11 @@ nlohmann::json LeaderApp::extra_stats(const SlamRunStats& stats) {
         dds_stats(publisher_->stats(), o_, first_stamp_ ? last_stamp_ - *first_stamp_ : 0);
   }
   if (ros_map_) extra["ros"] = ros_stats(stats);
+  if (intake_) {
+    intake_->log_summary();
+    extra["contributions"] = intake_->json();
+    extra["contributed_keys"] = slam_.contributed_keys();
+  }
   return extra;
 }
 
@@ -445,7 +479,7 @@ nlohmann::json LeaderApp::ros_stats(const SlamRunStats& stats) const {
   return j;
 }
 
-void LeaderApp::serve(const SlamRunStats& stats) {
+std::size_t LeaderApp::serve(const SlamRunStats& stats) {
   const bool from_topic = topic_ != nullptr || ros_scan_ != nullptr;
   const std::string why = !from_topic        ? std::string("log ended")
                           : source_->ended() ? fmt::format("no scan for {} s", o_.idle_exit)
@@ -455,9 +489,19 @@ void LeaderApp::serve(const SlamRunStats& stats) {
       o_.linger < 0 ? std::string("until stopped (Ctrl-C)") : fmt::format("for {} s", o_.linger));
   using Clock = std::chrono::steady_clock;
   const auto until = Clock::now() + std::chrono::duration<double>(o_.linger < 0 ? 1e9 : o_.linger);
+  std::size_t accepted = 0;
   while (!stop_.load() && Clock::now() < until) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    std::this_thread::sleep_for(std::chrono::milliseconds(intake_ ? 50 : 100));
+    if (!intake_) continue;
+    // The map is final but contributions still change it: publish what they changed (the
+    // summary stays complete, its version and scans follow).
+    const std::size_t n = intake_->process(slam_);
+    if (n > 0) {
+      accepted += n;
+      publish(true, 0.0f);
+    }
   }
+  return accepted;
 }
 
 std::size_t LeaderApp::publish_served(bool tiles, bool ros) {

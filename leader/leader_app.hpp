@@ -6,6 +6,10 @@
 // stop; the destructor tears down in reverse (the scan reader and the writers before the DDS
 // participant).
 //
+// With --accept-contributions a ContributionIntake checks the scans followers contribute after
+// every own scan and while serving; what they change is published like the leader's own scans,
+// and the outputs are written again after serving if they changed the map.
+//
 // With --map (a map server) the constructor loads the saved map instead (load_map) and opens
 // DDS; run() publishes it at once, complete, and serves it (serve_map): the summary every
 // publish period (and any tile a late joiner needs), /map every ROS map period, all in wall
@@ -22,6 +26,7 @@
 #include "app/ros_scan_source.hpp"
 #include "app/scan_source.hpp"
 #include "checkpoint.hpp"
+#include "contribution_intake.hpp"
 #include "esfleet/core/slam.hpp"
 #include "esfleet/dds/node.hpp"
 #include "leader_options.hpp"
@@ -73,8 +78,12 @@ class LeaderApp {
   nlohmann::json extra_stats(const SlamRunStats& stats);
   /// stats.json "ros": what the ROS outputs sent and cost; logs a summary.
   nlohmann::json ros_stats(const SlamRunStats& stats) const;
-  /// After a complete map: serves it for --linger seconds or until stopped.
-  void serve(const SlamRunStats& stats);
+  /// After a complete map: serves it for --linger seconds or until stopped; with
+  /// --accept-contributions checks the contributions every 50 ms and publishes what they
+  /// changed. Returns the contributions accepted meanwhile.
+  std::size_t serve(const SlamRunStats& stats);
+  /// Writes the map files and stats.json; false (logged) on failure.
+  bool write_outputs(const SlamRunStats& stats);
 
   LeaderOptions o_;
   const std::atomic<bool>& stop_;
@@ -84,6 +93,7 @@ class LeaderApp {
   std::optional<ServedMap> served_;  ///< --map
   std::unique_ptr<dds::Node> node_;
   std::unique_ptr<MapPublisher> publisher_;
+  std::unique_ptr<ContributionIntake> intake_;  ///< --accept-contributions
   std::unique_ptr<app::ScanSource> source_;
   app::TopicScanSource* topic_ = nullptr;   ///< source_ when it is the scan topic
   app::RosScanSource* ros_scan_ = nullptr;  ///< source_ when it is a ROS scan topic

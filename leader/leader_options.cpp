@@ -44,6 +44,10 @@ void LeaderOptions::validate() const {
         "--offline maps a --log only (--scan-topic and --ros-scan need DDS)");
   }
   if (ros.outputs && offline) throw std::invalid_argument("--ros needs DDS (not --offline)");
+  if (accept_contributions && (offline || serving_map())) {
+    throw std::invalid_argument(
+        "--accept-contributions needs a mapping leader on DDS (not --offline, not --map)");
+  }
   if (log.empty() && rate > 0.0) {
     throw std::invalid_argument("--rate paces a --log; scans from a topic come as sent");
   }
@@ -137,6 +141,11 @@ void add_leader_flags(CLI::App& cli, LeaderOptions& o, app::ParamTable& params) 
   dds->add_option("--full-period", o.full_period,
                   "send a changed tile whole when its whole copy is S seconds of scan time old")
       ->capture_default_str();
+  dds->add_flag("--accept-contributions", o.accept_contributions,
+                "check the scans followers contribute with their pose (esfleet-follower "
+                "--contribute) and write the accepted ones into the map, while mapping and "
+                "during --linger; each robot gets its counts back on "
+                "esfleet/robots/contribution_status");
   app::add_slam_params(params, &o.slam, &o.reader);
   params.bind(cli, "SLAM parameters");
 }

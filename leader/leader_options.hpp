@@ -47,6 +47,9 @@ struct LeaderOptions {
   TileEncoding encoding = TileEncoding::kMedZlib;
   std::uint64_t full_every = 60;  ///< a changed tile goes whole every this many publishes of it
   double full_period = 60.0;      ///< ... and when its whole copy is this old (s of scan time)
+  /// Check the scans followers contribute (esfleet-follower --contribute) and write the
+  /// accepted ones into the map, while mapping and while lingering (contribution_intake.hpp).
+  bool accept_contributions = false;
 
   // --- ROS 2 (docs/ros2.md) ---
   app::RosOptions ros;

@@ -108,6 +108,27 @@ struct Traits<msg::TruthPose> : EsfleetTraits {
 };
 
 template <>
+struct Traits<msg::ContributedScan> : EsfleetTraits {
+  using PubSub = msg::ContributedScanPubSubType;
+  static constexpr std::string_view kTopic = kContributionTopic;
+  static constexpr bool kTransientLocal = false;
+  // The leader takes each at once onto its own queue; 32 cover a mapping thread busy for a
+  // few seconds (a follower contributes a few scans a second).
+  static constexpr std::int32_t kDepth = 32;
+  static constexpr std::int32_t kReaderDepth = 32;
+  static constexpr std::int32_t kMaxInstances = kMaxRobots;
+};
+template <>
+struct Traits<msg::ContributionStatus> : EsfleetTraits {
+  using PubSub = msg::ContributionStatusPubSubType;
+  static constexpr std::string_view kTopic = kContributionStatusTopic;
+  static constexpr bool kTransientLocal = false;
+  static constexpr std::int32_t kDepth = 1;
+  static constexpr std::int32_t kReaderDepth = 1;
+  static constexpr std::int32_t kMaxInstances = kMaxRobots;
+};
+
+template <>
 struct Traits<nav_msgs::msg::OccupancyGrid> : RosTraits {
   using PubSub = nav_msgs::msg::OccupancyGridPubSubType;
 };
@@ -506,12 +527,16 @@ template class Writer<msg::MapMeta>;
 template class Writer<msg::RobotPose>;
 template class Writer<msg::LaserScanMsg>;
 template class Writer<msg::TruthPose>;
+template class Writer<msg::ContributedScan>;
+template class Writer<msg::ContributionStatus>;
 template class Reader<msg::MapTile>;
 template class Reader<msg::MapTileDelta>;
 template class Reader<msg::MapMeta>;
 template class Reader<msg::RobotPose>;
 template class Reader<msg::LaserScanMsg>;
 template class Reader<msg::TruthPose>;
+template class Reader<msg::ContributedScan>;
+template class Reader<msg::ContributionStatus>;
 template class Writer<nav_msgs::msg::OccupancyGrid>;
 template class Writer<map_msgs::msg::OccupancyGridUpdate>;
 template class Writer<geometry_msgs::msg::PoseWithCovarianceStamped>;

@@ -242,4 +242,70 @@ TimedPose truth_from_msg(const msg::TruthPose& m) {
   return {m.stamp(), Pose2{m.x(), m.y(), m.theta()}};
 }
 
+ReceivedContribution contribution_from_msg(const msg::ContributedScan& m) {
+  auto fail = [](const std::string& what) {
+    throw std::invalid_argument("contributed scan message: " + what);
+  };
+  if (m.robot_id().size() == 0) fail("robot_id is empty");
+  if (m.map_id().size() == 0) fail("map_id is empty");
+  if (!std::isfinite(m.stamp())) fail("stamp is not finite");
+  if (!std::isfinite(m.x()) || !std::isfinite(m.y())) fail("x / y is not finite");
+  if (!std::isfinite(m.theta())) fail("theta is not finite");
+  if (std::abs(m.x()) > 1e6 || std::abs(m.y()) > 1e6) fail("x / y beyond 1000 km");
+  if (!(m.agreement() >= 0.0f && m.agreement() <= 1.0f)) fail("agreement is not in [0, 1]");
+  if (!(m.known() >= 0.0f && m.known() <= 1.0f)) fail("known is not in [0, 1]");
+  if (m.ranges_mm().empty()) fail("ranges_mm is empty");
+  if (m.ranges_mm().size() > msg::kMaxScanBeams) {
+    fail("ranges_mm has " + std::to_string(m.ranges_mm().size()) + " beams, more than " +
+         std::to_string(msg::kMaxScanBeams));
+  }
+  if (!std::isfinite(m.angle_min()) || std::abs(m.angle_min()) > 7.0f) {
+    fail("angle_min is not finite or out of range");
+  }
+  if (!std::isfinite(m.angle_increment()) || m.angle_increment() == 0.0f ||
+      std::abs(m.angle_increment()) > 1.0f) {
+    fail("angle_increment is zero, not finite or out of range");
+  }
+  if (!(m.max_range() > 0.0f) || !(m.max_range() <= 1000.0f)) {
+    fail("max_range must be > 0 and at most 1000 m");
+  }
+  ReceivedContribution r;
+  Contribution& c = r.contribution;
+  c.robot = m.robot_id().to_string();
+  c.seq = m.seq();
+  c.pose = Pose2{m.x(), m.y(), m.theta()};
+  c.scan.stamp = m.stamp();
+  c.scan.angle_min = m.angle_min();
+  c.scan.angle_increment = m.angle_increment();
+  c.scan.max_range = m.max_range();
+  c.scan.ranges.reserve(m.ranges_mm().size());
+  for (const std::uint16_t mm : m.ranges_mm()) {
+    c.scan.ranges.push_back(mm == msg::kNoReturnMm ? m.max_range()
+                                                   : static_cast<float>(mm) / 1000.0f);
+  }
+  r.claim.map_id = m.map_id().to_string();
+  r.claim.epoch = m.epoch();
+  r.claim.agreement = m.agreement();
+  r.claim.known = m.known();
+  return r;
+}
+
+ContributionTally contribution_status_from_msg(const msg::ContributionStatus& m) {
+  auto fail = [](const std::string& what) {
+    throw std::invalid_argument("contribution status message: " + what);
+  };
+  if (m.robot_id().size() == 0) fail("robot_id is empty");
+  if (m.last_verdict() > static_cast<std::uint8_t>(ContributionVerdict::kContradicts)) {
+    fail("last_verdict " + std::to_string(m.last_verdict()) + " is unknown");
+  }
+  ContributionTally t;
+  t.last_seq = m.last_seq();
+  t.last_verdict = static_cast<ContributionVerdict>(m.last_verdict());
+  t.accepted = m.accepted();
+  t.rejected = m.rejected();
+  t.rejected_in_row = m.rejected_in_row();
+  t.stamp_ns = m.stamp_ns();
+  return t;
+}
+
 }  // namespace esfleet::dds

@@ -1,6 +1,7 @@
 #include "esfleet/dds/to_msg.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <stdexcept>
 
@@ -142,6 +143,56 @@ msg::LaserScanMsg scan_to_msg(const std::string& robot_id, std::uint32_t seq,
 
 msg::TruthPose truth_to_msg(const std::string& robot_id, const TimedPose& pose) {
   return timed_pose_fields<msg::TruthPose>(robot_id, pose);
+}
+
+std::uint16_t range_to_mm(float range, float max_range) {
+  if (std::isnan(range) || range < 0.0f) return 0;
+  if (range >= max_range) return msg::kNoReturnMm;
+  const double mm = std::round(static_cast<double>(range) * 1000.0);
+  if (mm >= static_cast<double>(msg::kNoReturnMm)) return msg::kNoReturnMm;
+  return static_cast<std::uint16_t>(mm);
+}
+
+msg::ContributedScan contribution_to_msg(const Contribution& c, const ContributionClaim& claim) {
+  const LaserScan& scan = c.scan;
+  if (scan.ranges.size() > msg::kMaxScanBeams) {
+    throw std::invalid_argument("contribution_to_msg: " + std::to_string(scan.ranges.size()) +
+                                " beams, more than " + std::to_string(msg::kMaxScanBeams));
+  }
+  msg::ContributedScan m;
+  m.robot_id(c.robot);
+  m.protocol(msg::kProtocolVersion);
+  m.seq(c.seq);
+  m.map_id(claim.map_id);
+  m.epoch(claim.epoch);
+  m.stamp(scan.stamp);
+  m.x(c.pose.x);
+  m.y(c.pose.y);
+  m.theta(c.pose.theta);
+  m.agreement(claim.agreement);
+  m.known(claim.known);
+  m.angle_min(scan.angle_min);
+  m.angle_increment(scan.angle_increment);
+  m.max_range(scan.max_range);
+  std::vector<std::uint16_t> mm(scan.ranges.size());
+  std::transform(scan.ranges.begin(), scan.ranges.end(), mm.begin(),
+                 [&](float r) { return range_to_mm(r, scan.max_range); });
+  m.ranges_mm(std::move(mm));
+  return m;
+}
+
+msg::ContributionStatus contribution_status_to_msg(const std::string& robot_id,
+                                                   const ContributionTally& tally) {
+  msg::ContributionStatus m;
+  m.robot_id(robot_id);
+  m.protocol(msg::kProtocolVersion);
+  m.last_seq(tally.last_seq);
+  m.last_verdict(static_cast<std::uint8_t>(tally.last_verdict));
+  m.accepted(tally.accepted);
+  m.rejected(tally.rejected);
+  m.rejected_in_row(tally.rejected_in_row);
+  m.stamp_ns(tally.stamp_ns);
+  return m;
 }
 
 }  // namespace esfleet::dds

@@ -343,5 +343,187 @@ TEST(MsgConvert, TruthRoundTripAndValidation) {
   expect_rejected(bad, "theta");
 }
 
+Contribution sample_contribution(std::size_t beams) {
+  Contribution c;
+  c.robot = "robot1";
+  c.seq = 17;
+  c.pose = Pose2{3.25, -7.5, 1.25};
+  c.scan.stamp = 981.5;
+  c.scan.angle_min = -1.5708f;
+  c.scan.angle_increment = 3.14159f / static_cast<float>(beams - 1);
+  c.scan.max_range = 50.0f;
+  std::mt19937 rng(29);
+  std::uniform_real_distribution<float> range(0.1f, 49.0f);
+  for (std::size_t i = 0; i < beams; ++i) c.scan.ranges.push_back(range(rng));
+  return c;
+}
+
+TEST(ContributionConvert, RoundTripInMillimetres) {
+  Contribution c = sample_contribution(361);
+  c.scan.ranges[0] = 50.0f;          // at max_range: no return
+  c.scan.ranges[1] = 70.0f;          // beyond it
+  c.scan.ranges[2] = std::nanf("");  // invalid: 0, skipped by the SLAM
+  c.scan.ranges[3] = -1.0f;          // invalid
+  c.scan.ranges[4] = 1.2344f;        // rounded to the millimetre
+  const ContributionClaim claim{"fleet", 4, 0.9f, 0.75f};
+  const msg::ContributedScan m = contribution_to_msg(c, claim);
+  EXPECT_EQ(m.protocol(), msg::kProtocolVersion);
+  EXPECT_EQ(m.ranges_mm()[0], msg::kNoReturnMm);
+  EXPECT_EQ(m.ranges_mm()[1], msg::kNoReturnMm);
+  EXPECT_EQ(m.ranges_mm()[2], 0);
+  EXPECT_EQ(m.ranges_mm()[3], 0);
+  EXPECT_EQ(m.ranges_mm()[4], 1234);
+
+  const ReceivedContribution r = contribution_from_msg(m);
+  EXPECT_EQ(r.contribution.robot, "robot1");
+  EXPECT_EQ(r.contribution.seq, 17u);
+  EXPECT_EQ(r.contribution.pose, c.pose);
+  EXPECT_EQ(r.contribution.scan.stamp, c.scan.stamp);
+  EXPECT_EQ(r.contribution.scan.angle_min, c.scan.angle_min);
+  EXPECT_EQ(r.contribution.scan.angle_increment, c.scan.angle_increment);
+  EXPECT_EQ(r.contribution.scan.max_range, 50.0f);
+  EXPECT_FALSE(r.contribution.scan.odometry.has_value());
+  EXPECT_EQ(r.claim.map_id, "fleet");
+  EXPECT_EQ(r.claim.epoch, 4u);
+  EXPECT_EQ(r.claim.agreement, 0.9f);
+  EXPECT_EQ(r.claim.known, 0.75f);
+  ASSERT_EQ(r.contribution.scan.ranges.size(), 361u);
+  EXPECT_EQ(r.contribution.scan.ranges[0], 50.0f);
+  EXPECT_EQ(r.contribution.scan.ranges[1], 50.0f);
+  EXPECT_TRUE(r.contribution.scan.is_no_return(1));
+  EXPECT_EQ(r.contribution.scan.ranges[2], 0.0f);
+  EXPECT_FLOAT_EQ(r.contribution.scan.ranges[4], 1.234f);
+  for (std::size_t i = 5; i < 361; ++i) {
+    EXPECT_NEAR(r.contribution.scan.ranges[i], c.scan.ranges[i], 0.0005f) << i;
+  }
+}
+
+TEST(ContributionConvert, RangesBeyond65MetresAreNoReturn) {
+  EXPECT_EQ(range_to_mm(65.534f, 81.9f), 65534);
+  EXPECT_EQ(range_to_mm(65.535f, 81.9f), msg::kNoReturnMm);
+  EXPECT_EQ(range_to_mm(70.0f, 81.9f), msg::kNoReturnMm);
+  EXPECT_EQ(range_to_mm(81.9f, 81.9f), msg::kNoReturnMm);
+  EXPECT_EQ(range_to_mm(std::numeric_limits<float>::infinity(), 81.9f), msg::kNoReturnMm);
+  EXPECT_EQ(range_to_mm(0.0f, 81.9f), 0);
+}
+
+TEST(ContributionConvert, MalformedFieldsAreRefusedNamingThem) {
+  const msg::ContributedScan good =
+      contribution_to_msg(sample_contribution(181), ContributionClaim{"fleet", 1, 0.9f, 0.8f});
+  auto expect_rejected = [](const msg::ContributedScan& bad, const std::string& field) {
+    try {
+      contribution_from_msg(bad);
+      ADD_FAILURE() << "accepted a contribution with a bad " << field;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
+    }
+  };
+  const double nan = std::nan("");
+  const double inf = std::numeric_limits<double>::infinity();
+  msg::ContributedScan bad = good;
+  bad.robot_id("");
+  expect_rejected(bad, "robot_id");
+  bad = good;
+  bad.map_id("");
+  expect_rejected(bad, "map_id");
+  bad = good;
+  bad.stamp(nan);
+  expect_rejected(bad, "stamp");
+  bad = good;
+  bad.x(nan);
+  expect_rejected(bad, "x");
+  bad = good;
+  bad.y(-inf);
+  expect_rejected(bad, "y");
+  bad = good;
+  bad.x(2e6);
+  expect_rejected(bad, "x");
+  bad = good;
+  bad.theta(inf);
+  expect_rejected(bad, "theta");
+  bad = good;
+  bad.agreement(std::nanf(""));
+  expect_rejected(bad, "agreement");
+  bad = good;
+  bad.known(1.5f);
+  expect_rejected(bad, "known");
+  bad = good;
+  bad.ranges_mm().clear();
+  expect_rejected(bad, "ranges_mm");
+  bad = good;
+  bad.ranges_mm().resize(msg::kMaxScanBeams + 1, 1000);
+  expect_rejected(bad, "ranges_mm");
+  bad = good;
+  bad.angle_min(std::nanf(""));
+  expect_rejected(bad, "angle_min");
+  bad = good;
+  bad.angle_min(100.0f);
+  expect_rejected(bad, "angle_min");
+  bad = good;
+  bad.angle_increment(0.0f);
+  expect_rejected(bad, "angle_increment");
+  bad = good;
+  bad.angle_increment(std::numeric_limits<float>::infinity());
+  expect_rejected(bad, "angle_increment");
+  bad = good;
+  bad.angle_increment(2.0f);
+  expect_rejected(bad, "angle_increment");
+  bad = good;
+  bad.max_range(0.0f);
+  expect_rejected(bad, "max_range");
+  bad = good;
+  bad.max_range(std::nanf(""));
+  expect_rejected(bad, "max_range");
+  EXPECT_NO_THROW(contribution_from_msg(good));
+
+  Contribution too_many = sample_contribution(181);
+  too_many.scan.ranges.resize(msg::kMaxScanBeams + 1, 1.0f);
+  EXPECT_THROW(contribution_to_msg(too_many, ContributionClaim{"m", 1, 1.0f, 1.0f}),
+               std::invalid_argument);
+}
+
+// A contributed scan of a 361-beam laser (and of 500 beams) fits in one 1400-byte RTPS message
+// with the longest ids, like the map samples (TileParts above), so Fast DDS never fragments it.
+TEST(ContributionConvert, ScansOf361And500BeamsFitInOneRtpsMessageOf1400Bytes) {
+  constexpr std::uint32_t kMaxData = 1284;
+  msg::ContributedScanPubSubType type;
+  for (const std::size_t beams : {std::size_t{361}, std::size_t{500}}) {
+    Contribution c = sample_contribution(beams);
+    c.robot = std::string(64, 'r');
+    msg::ContributedScan m =
+        contribution_to_msg(c, ContributionClaim{std::string(64, 'm'), 1, 1.0f, 1.0f});
+    const std::uint32_t size = type.getSerializedSizeProvider(&m)();
+    EXPECT_LE(size, kMaxData) << beams << " beams";
+    EXPECT_GT(size, 2 * beams) << beams << " beams";
+  }
+}
+
+TEST(ContributionConvert, StatusRoundTripAndValidation) {
+  ContributionTally t;
+  t.last_seq = 99;
+  t.last_verdict = ContributionVerdict::kRefineMoved;
+  t.accepted = 120;
+  t.rejected = 3;
+  t.rejected_in_row = 2;
+  t.stamp_ns = 1700000000123456789ull;
+  const msg::ContributionStatus m = contribution_status_to_msg("robot1", t);
+  EXPECT_EQ(m.robot_id(), "robot1");
+  EXPECT_EQ(m.protocol(), msg::kProtocolVersion);
+  const ContributionTally back = contribution_status_from_msg(m);
+  EXPECT_EQ(back.last_seq, 99u);
+  EXPECT_EQ(back.last_verdict, ContributionVerdict::kRefineMoved);
+  EXPECT_EQ(back.accepted, 120u);
+  EXPECT_EQ(back.rejected, 3u);
+  EXPECT_EQ(back.rejected_in_row, 2u);
+  EXPECT_EQ(back.stamp_ns, t.stamp_ns);
+
+  msg::ContributionStatus bad = m;
+  bad.last_verdict(200);
+  EXPECT_THROW(contribution_status_from_msg(bad), std::invalid_argument);
+  bad = m;
+  bad.robot_id("");
+  EXPECT_THROW(contribution_status_from_msg(bad), std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace esfleet::dds

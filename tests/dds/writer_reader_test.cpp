@@ -2,7 +2,8 @@
 // of one process over shared memory: every topic round-trips field by field, counters agree,
 // more tiles than Fast DDS's default instance limit arrive, wrong-protocol samples are refused,
 // samples longer than the bounded types (protocol 3) are not written, endpoints survive their
-// Node. Each test uses its own domain id (110-119).
+// Node, the contributed-scan topics reach the leader from a robot's partition and the answer
+// only that robot. Each test uses its own domain id (110-119; 153 the contributed scans).
 
 #include <atomic>
 #include <chrono>
@@ -19,6 +20,7 @@
 #include <gtest/gtest.h>
 
 #include "dds_test_support.hpp"
+#include "esfleet/dds/from_msg.hpp"
 #include "esfleet/dds/node.hpp"
 #include "esfleet/dds/reader.hpp"
 #include "esfleet/dds/to_msg.hpp"
@@ -283,6 +285,62 @@ TEST(WriterReaderTest, EndpointsOutlivingTheirNodeAreInert) {
   writer.reset();
   reader.reset();
   EXPECT_EQ(calls.load(), 0);
+}
+
+// A follower writes its contributions in its robot's partition, the leader reads them in every
+// partition; the leader answers in the robot's partition, which another robot does not see.
+TEST(WriterReaderTest, ContributionsReachTheLeaderAndTheAnswerOnlyTheirRobot) {
+  Node leader({153, kShm, "leader"});
+  Node robot7({153, kShm, "robot7"});
+  Node robot8({153, kShm, "robot8"});
+  Inbox<msg::ContributedScan> contributions;
+  Inbox<msg::ContributionStatus> status7;
+  Inbox<msg::ContributionStatus> status8;
+  ContributionReader contribution_reader(leader, contributions.callback(), kAllPartitions);
+  ContributionStatusReader status_reader7(robot7, status7.callback(), "robot7");
+  ContributionStatusReader status_reader8(robot8, status8.callback(), "robot8");
+  ContributionWriter contribution_writer(robot7, "robot7");
+  ContributionStatusWriter status_writer(leader, "robot7");
+  EXPECT_EQ(contribution_writer.topic_name(), "esfleet/robots/contribution");
+  EXPECT_EQ(status_writer.topic_name(), "esfleet/robots/contribution_status");
+  ASSERT_TRUE(contribution_writer.wait_for_matched(1, milliseconds(5000)));
+  ASSERT_TRUE(status_writer.wait_for_matched(1, milliseconds(5000)));
+
+  esfleet::Contribution c;
+  c.robot = "robot7";
+  c.seq = 3;
+  c.pose = esfleet::Pose2{1.5, -2.0, 0.25};
+  c.scan.stamp = 42.0;
+  c.scan.angle_min = -1.5f;
+  c.scan.angle_increment = 0.01f;
+  c.scan.max_range = 30.0f;
+  c.scan.ranges.assign(361, 2.5f);
+  ASSERT_TRUE(contribution_writer.write(contribution_to_msg(c, {"map", 9, 0.9f, 0.8f})));
+  ASSERT_TRUE(wait_until([&] { return contribution_reader.samples_received() == 1; }));
+  {
+    std::lock_guard lock(contributions.mutex);
+    const ReceivedContribution r = contribution_from_msg(contributions.samples.at(0));
+    EXPECT_EQ(r.contribution.robot, "robot7");
+    EXPECT_EQ(r.contribution.seq, 3u);
+    EXPECT_EQ(r.contribution.pose, c.pose);
+    EXPECT_EQ(r.contribution.scan.ranges, c.scan.ranges);
+    EXPECT_EQ(r.claim.epoch, 9u);
+  }
+  // One RTPS message per contribution: a 361-beam scan is well below 1284 bytes.
+  EXPECT_LT(contribution_writer.bytes_written(), 1284u);
+
+  ContributionTally t;
+  t.last_seq = 3;
+  t.last_verdict = esfleet::ContributionVerdict::kDisagrees;
+  t.rejected = 1;
+  t.rejected_in_row = 1;
+  ASSERT_TRUE(status_writer.write(contribution_status_to_msg("robot7", t)));
+  ASSERT_TRUE(wait_until([&] { return status_reader7.samples_received() == 1; }));
+  std::this_thread::sleep_for(milliseconds(200));
+  EXPECT_EQ(status_reader8.samples_received(), 0u);
+  std::lock_guard lock(status7.mutex);
+  EXPECT_EQ(contribution_status_from_msg(status7.samples.at(0)).last_verdict,
+            esfleet::ContributionVerdict::kDisagrees);
 }
 
 TEST(WriterReaderTest, ReaderRejectsEmptyCallbackAndCountsThrowingOnes) {

@@ -37,6 +37,27 @@ Pose2 along(int i) {  // a straight drive through the room, 0.1 m per scan
   return {2.0 + 0.1 * i * std::cos(0.3), 1.5 + 0.1 * i * std::sin(0.3), 0.3};
 }
 
+TEST(SelfLocalisation, ResetLocalisesAfreshAndIsCounted) {
+  const auto world = asymmetric_room();
+  GridMap map = esfleet::testing::map_of(world, 12, 8);
+  LocaliserConfig c;
+  c.seed = 2;
+  SelfLocalisation loc(c);
+  const mapshare::MapReplica replica = shared(map, 1);
+  int i = 0;
+  for (; i < 60 && loc.state() != LocaliserState::kTracking; ++i) {
+    loc.process(replica, make_scan(world, along(i), 0.2 * i));
+  }
+  ASSERT_EQ(loc.state(), LocaliserState::kTracking) << "seed 2: no pose declared";
+  EXPECT_EQ(loc.resets(), 0u);
+  loc.reset();  // the leader refused this robot's scans: its pose is in doubt
+  EXPECT_EQ(loc.resets(), 1u);
+  const LocaliserStep s = loc.process(replica, make_scan(world, along(i), 0.2 * i));
+  EXPECT_EQ(s.state, LocaliserState::kLocalising);  // what the pose topic then says
+  EXPECT_EQ(status_of(s.state), msg::kStatusLocalising);
+  EXPECT_EQ(loc.json("r")["resets"], 1);
+}
+
 TEST(SelfLocalisation, WaitsForTheMapLocalisesInTheReplicaAndTracks) {
   const auto world = asymmetric_room();
   GridMap map = esfleet::testing::map_of(world, 12, 8);

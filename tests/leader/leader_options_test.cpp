@@ -102,6 +102,20 @@ TEST(LeaderOptions, MapRefusesFlagsForScans) {
                        "--publish-period must be > 0"));
 }
 
+TEST(LeaderOptions, AcceptContributionsNeedsAMappingLeaderOnDds) {
+  LeaderOptions o;
+  EXPECT_EQ(options_error({"--log", "x.clf"}, &o), "");
+  EXPECT_FALSE(o.accept_contributions);
+  EXPECT_EQ(options_error({"--log", "x.clf", "--accept-contributions", "--max-scans", "900"}, &o),
+            "");
+  EXPECT_TRUE(o.accept_contributions);
+  EXPECT_EQ(options_error({"--scan-topic", "r1", "--accept-contributions"}), "");
+  EXPECT_TRUE(contains(options_error({"--log", "x.clf", "--offline", "--accept-contributions"}),
+                       "--accept-contributions needs a mapping leader on DDS"));
+  EXPECT_TRUE(contains(options_error({"--map", "out", "--accept-contributions"}),
+                       "--accept-contributions needs"));
+}
+
 TEST(LeaderOptions, MapNeedsAValue) {
   std::optional<int> code;
   EXPECT_EQ(options_error({"--map"}, nullptr, &code), "parse error");

@@ -16,6 +16,7 @@
 
 #include "esfleet/core/geometry.hpp"
 #include "esfleet/core/laser_scan.hpp"
+#include "esfleet/dds/to_msg.hpp"
 #include "esfleet/dds/topics.hpp"
 #include "esfleet/mapshare/messages.hpp"
 
@@ -107,5 +108,21 @@ LaserScan scan_from_msg(const msg::LaserScanMsg& m);
 /// std::invalid_argument naming the field for another protocol version, an empty robot_id or a
 /// non-finite stamp, x, y or theta.
 TimedPose truth_from_msg(const msg::TruthPose& m);
+
+/// A received contributed scan: the contribution (robot id, seq, scan, claimed pose) and the
+/// follower's claim (map, epoch, evidence).
+struct ReceivedContribution {
+  Contribution contribution;
+  ContributionClaim claim;
+};
+/// Throws std::invalid_argument naming the field for a contribution that cannot be used: an
+/// empty robot_id or map_id, a non-finite stamp, x, y or theta, agreement or known not in
+/// [0, 1], no beams or more than msg::kMaxScanBeams, non-finite or out-of-range angle_min /
+/// angle_increment (a zero increment too), max_range not in (0, 1000] m. Ranges come
+/// back in metres; msg::kNoReturnMm as max_range.
+ReceivedContribution contribution_from_msg(const msg::ContributedScan& m);
+/// Throws std::invalid_argument naming the field for an empty robot_id or a verdict that
+/// ContributionVerdict does not have.
+ContributionTally contribution_status_from_msg(const msg::ContributionStatus& m);
 
 }  // namespace esfleet::dds

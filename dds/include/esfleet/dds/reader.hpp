@@ -96,6 +96,8 @@ extern template class Reader<msg::MapMeta>;
 extern template class Reader<msg::RobotPose>;
 extern template class Reader<msg::LaserScanMsg>;
 extern template class Reader<msg::TruthPose>;
+extern template class Reader<msg::ContributedScan>;
+extern template class Reader<msg::ContributionStatus>;
 
 /// Receives map tiles from kTileTopic.
 using TileReader = Reader<msg::MapTile>;
@@ -109,5 +111,9 @@ using PoseReader = Reader<msg::RobotPose>;
 using ScanReader = Reader<msg::LaserScanMsg>;
 /// True poses of simulated robots on kTruthTopic (evaluation only).
 using TruthReader = Reader<msg::TruthPose>;
+/// Receives contributed scans from kContributionTopic (the leader, in every partition).
+using ContributionReader = Reader<msg::ContributedScan>;
+/// Receives the leader's answers to contributions from kContributionStatusTopic.
+using ContributionStatusReader = Reader<msg::ContributionStatus>;
 
 }  // namespace esfleet::dds

@@ -9,6 +9,7 @@
 
 #include <esfleet/msg/esfleet.h>
 
+#include "esfleet/core/contribution.hpp"
 #include "esfleet/core/geometry.hpp"
 #include "esfleet/core/laser_scan.hpp"
 #include "esfleet/mapshare/messages.hpp"
@@ -48,5 +49,37 @@ msg::LaserScanMsg scan_to_msg(const std::string& robot_id, std::uint32_t seq,
                               const LaserScan& scan);
 /// Simulator: the true pose of robot `robot_id` (kTruthTopic; stamp = the scan's stamp).
 msg::TruthPose truth_to_msg(const std::string& robot_id, const TimedPose& pose);
+
+/// What a follower sends with a contributed scan besides the scan and its pose: the map the
+/// pose is in and its evidence for the pose (FitnessValue::agreement(), known_share()).
+struct ContributionClaim {
+  std::string map_id;
+  std::uint32_t epoch = 0;
+  float agreement = 0.0f;
+  float known = 0.0f;
+};
+
+/// A range in metres as ContributedScan.ranges_mm holds it: rounded to millimetres; at or
+/// beyond `max_range` (or 65.535 m and more) msg::kNoReturnMm; NaN or negative 0 (which the
+/// SLAM skips, as it skips them in metres).
+std::uint16_t range_to_mm(float range, float max_range);
+
+/// A contributed scan (kContributionTopic): robot id and seq from `c`, the scan's ranges in
+/// millimetres (range_to_mm). The odometry is not sent (the leader uses only the pose).
+/// Throws std::invalid_argument for more than msg::kMaxScanBeams beams.
+msg::ContributedScan contribution_to_msg(const Contribution& c, const ContributionClaim& claim);
+
+/// The leader's answer to one robot's contributions, as kept by the leader and read by the
+/// follower (kContributionStatusTopic).
+struct ContributionTally {
+  std::uint32_t last_seq = 0;  ///< seq of the contribution last checked
+  ContributionVerdict last_verdict = ContributionVerdict::kAccepted;
+  std::uint32_t accepted = 0;
+  std::uint32_t rejected = 0;
+  std::uint32_t rejected_in_row = 0;  ///< rejected since the last accepted one
+  std::uint64_t stamp_ns = 0;         ///< leader's CLOCK_REALTIME at publication
+};
+msg::ContributionStatus contribution_status_to_msg(const std::string& robot_id,
+                                                   const ContributionTally& tally);
 
 }  // namespace esfleet::dds

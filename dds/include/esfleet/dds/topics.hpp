@@ -9,6 +9,8 @@
 //   esfleet/robots/pose      msg::RobotPose     every robot, keyed robot_id
 //   esfleet/robots/scan      msg::LaserScanMsg  every robot (optional), keyed robot_id
 //   esfleet/sim/truth        msg::TruthPose     simulator -> evaluation only, keyed robot_id
+//   esfleet/robots/contribution         msg::ContributedScan     follower -> leader, robot_id
+//   esfleet/robots/contribution_status  msg::ContributionStatus  leader -> follower, robot_id
 
 #include <cstdint>
 #include <string>
@@ -46,6 +48,14 @@ inline constexpr std::string_view kScanTopic = "esfleet/robots/scan";
 /// True poses of simulated robots (msg::TruthPose): reliable, volatile, keep last 50 per robot.
 /// For evaluation only: SLAM and localisation never subscribe to it.
 inline constexpr std::string_view kTruthTopic = "esfleet/sim/truth";
+
+/// Scans followers contribute to the leader's map (msg::ContributedScan): reliable, volatile,
+/// keep last 32 per robot; written in the robot's partition, read by the leader in every one.
+inline constexpr std::string_view kContributionTopic = "esfleet/robots/contribution";
+/// The leader's answer per robot (msg::ContributionStatus): reliable, volatile, keep last 1 per
+/// robot; written by the leader in the robot's own partition (so that DDS Security can grant
+/// each robot its own status only), read by the follower in its partition.
+inline constexpr std::string_view kContributionStatusTopic = "esfleet/robots/contribution_status";
 
 /// Keys (map_id, tx, ty, part) a tile or delta endpoint holds at once (its max_instances):
 /// about 4096 tiles of 4 parts (64-cell tiles at 5 cm are 3.2 m square: 4096 cover

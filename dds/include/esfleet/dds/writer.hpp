@@ -10,6 +10,8 @@
 //     after the full tile they build on; late joiners get full tiles instead).
 //   PoseWriter: RELIABLE, VOLATILE, KEEP_LAST 1 per robot.
 //   ScanWriter: RELIABLE, VOLATILE, KEEP_LAST 50 per robot.
+//   ContributionWriter: RELIABLE, VOLATILE, KEEP_LAST 32 per robot.
+//   ContributionStatusWriter: RELIABLE, VOLATILE, KEEP_LAST 1 per robot.
 //   All: resource limits unlimited (Fast DDS's default max_instances = 10 silently drops writes
 //   to the 11th tile), heartbeat period 100 ms (a lost last sample is repaired within ~100 ms
 //   instead of 3 s). With KEEP_LAST, write() never blocks.
@@ -87,6 +89,8 @@ extern template class Writer<msg::MapMeta>;
 extern template class Writer<msg::RobotPose>;
 extern template class Writer<msg::LaserScanMsg>;
 extern template class Writer<msg::TruthPose>;
+extern template class Writer<msg::ContributedScan>;
+extern template class Writer<msg::ContributionStatus>;
 
 /// Publishes map tiles on kTileTopic.
 using TileWriter = Writer<msg::MapTile>;
@@ -100,5 +104,9 @@ using PoseWriter = Writer<msg::RobotPose>;
 using ScanWriter = Writer<msg::LaserScanMsg>;
 /// True poses of simulated robots on kTruthTopic (evaluation only).
 using TruthWriter = Writer<msg::TruthPose>;
+/// A follower's contributed scans on kContributionTopic (in its robot's partition).
+using ContributionWriter = Writer<msg::ContributedScan>;
+/// The leader's answers to a robot's contributions on kContributionStatusTopic.
+using ContributionStatusWriter = Writer<msg::ContributionStatus>;
 
 }  // namespace esfleet::dds

@@ -1,0 +1,104 @@
+// esfleet-follower's command line: the contributed-scan flags (--contribute and its limits,
+// the test aid --contribute-pose-offset), parsed and validated before any DDS participant.
+
+#include "follower_options.hpp"
+
+#include <gtest/gtest.h>
+
+#include <numbers>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "app/program.hpp"
+
+namespace esfleet::follower {
+namespace {
+
+/// Parses `args` like esfleet-follower's main() and finishes the options. Returns the error
+/// message ("" when the options are valid).
+std::string options_error(std::vector<std::string> args, FollowerOptions* out = nullptr) {
+  app::Program program("esfleet-follower", "follower", "test");
+  FollowerOptions o;
+  app::ParamTable params;
+  add_follower_flags(program.cli(), o, params);
+  args.insert(args.begin(), "esfleet-follower");
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  if (program.parse(static_cast<int>(argv.size()), argv.data())) return "parse error";
+  try {
+    finish_follower_options(o, params);
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+  if (out != nullptr) *out = o;
+  return "";
+}
+
+bool contains(const std::string& s, const std::string& part) {
+  return s.find(part) != std::string::npos;
+}
+
+TEST(FollowerOptions, ContributionIsOffByDefaultWithTheDocumentedLimits) {
+  FollowerOptions o;
+  ASSERT_EQ(options_error({"--log", "x.clf"}, &o), "");
+  EXPECT_FALSE(o.contribute.enabled);
+  EXPECT_EQ(o.contribute.min_agreement, 0.8);
+  EXPECT_EQ(o.contribute.min_known, 0.5);
+  EXPECT_EQ(o.contribute.min_travel, 0.1);
+  EXPECT_EQ(o.contribute.min_turn_deg, 5.0);
+  EXPECT_EQ(o.contribute.max_rejections, 5);
+  EXPECT_EQ(o.contribute.pose_offset, Pose2{});
+}
+
+TEST(FollowerOptions, ContributionFlagsAreParsed) {
+  FollowerOptions o;
+  ASSERT_EQ(
+      options_error({"--log", "x.clf", "--contribute", "--contribute-min-agreement", "0.9",
+                     "--contribute-min-travel", "0.25", "--contribute-min-turn", "10",
+                     "--contribute-max-rejections", "3", "--contribute-pose-offset", "0.5,-0.3,4"},
+                    &o),
+      "");
+  EXPECT_TRUE(o.contribute.enabled);
+  EXPECT_EQ(o.contribute.min_agreement, 0.9);
+  EXPECT_EQ(o.contribute.min_travel, 0.25);
+  EXPECT_EQ(o.contribute.min_turn_deg, 10.0);
+  EXPECT_EQ(o.contribute.max_rejections, 3);
+  EXPECT_DOUBLE_EQ(o.contribute.pose_offset.x, 0.5);
+  EXPECT_DOUBLE_EQ(o.contribute.pose_offset.y, -0.3);
+  EXPECT_DOUBLE_EQ(o.contribute.pose_offset.theta, 4.0 * std::numbers::pi / 180.0);
+}
+
+TEST(FollowerOptions, BadContributionFlagsAreRefusedNamingTheFlag) {
+  EXPECT_TRUE(contains(options_error({"--contribute"}), "--contribute sends this robot's scans"));
+  const std::vector<std::pair<std::vector<std::string>, std::string>> cases = {
+      {{"--contribute-min-agreement", "1.5"}, "--contribute-min-agreement"},
+      {{"--contribute-min-travel", "-1"}, "--contribute-min-travel"},
+      {{"--contribute-min-turn", "-5"}, "--contribute-min-turn"},
+      {{"--contribute-max-rejections", "0"}, "--contribute-max-rejections"},
+      {{"--contribute-pose-offset", "1,2"}, "--contribute-pose-offset '1,2'"},
+      {{"--contribute-pose-offset", "1,2,x"}, "--contribute-pose-offset"},
+      {{"--contribute-pose-offset", "1,2,3,"}, "--contribute-pose-offset"},
+      {{"--contribute-pose-offset", "1,nan,3"}, "--contribute-pose-offset"},
+  };
+  for (const auto& [flags, expected] : cases) {
+    std::vector<std::string> args = {"--log", "x.clf", "--contribute"};
+    args.insert(args.end(), flags.begin(), flags.end());
+    const std::string error = options_error(args);
+    EXPECT_TRUE(contains(error, expected)) << flags.front() << ": " << error;
+  }
+}
+
+TEST(FollowerOptions, PoseOffsetParsing) {
+  const Pose2 p = parse_pose_offset("-1.5,0,90");
+  EXPECT_DOUBLE_EQ(p.x, -1.5);
+  EXPECT_DOUBLE_EQ(p.y, 0.0);
+  EXPECT_DOUBLE_EQ(p.theta, std::numbers::pi / 2);
+  EXPECT_THROW(parse_pose_offset(""), std::invalid_argument);
+  EXPECT_THROW(parse_pose_offset("1,2,3,4"), std::invalid_argument);
+  EXPECT_THROW(parse_pose_offset("1,,3"), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace esfleet::follower
