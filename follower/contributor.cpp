@@ -13,18 +13,7 @@
 namespace esfleet::follower {
 
 void ContributorConfig::validate() const {
-  if (!(min_agreement >= 0.0 && min_agreement <= 1.0)) {
-    throw std::invalid_argument("--contribute-min-agreement must be in [0, 1]");
-  }
-  if (!(min_known >= 0.0 && min_known <= 1.0)) {
-    throw std::invalid_argument("contribution min_known must be in [0, 1]");
-  }
-  if (!(min_travel >= 0.0) || !std::isfinite(min_travel)) {
-    throw std::invalid_argument("--contribute-min-travel must be finite and >= 0");
-  }
-  if (!(min_turn_deg >= 0.0) || !std::isfinite(min_turn_deg)) {
-    throw std::invalid_argument("--contribute-min-turn must be finite and >= 0");
-  }
+  send.validate();
   if (max_rejections < 1) throw std::invalid_argument("--contribute-max-rejections must be >= 1");
   if (!std::isfinite(pose_offset.x) || !std::isfinite(pose_offset.y) ||
       !std::isfinite(pose_offset.theta)) {
@@ -60,15 +49,7 @@ bool Contributor::after_scan(const LaserScan& scan, const LocaliserStep& step, b
                              const mapshare::MapReplica& replica) {
   if (!was_tracking || step.state != LocaliserState::kTracking || step.declared) return false;
   if (!replica.has_map()) return false;
-  if (step.value.agreement() < config_.min_agreement ||
-      step.value.known_share() < config_.min_known) {
-    return false;
-  }
-  if (last_sent_) {
-    const double travel = std::hypot(step.pose.x - last_sent_->x, step.pose.y - last_sent_->y);
-    const double turn = std::abs(rad_to_deg(normalize_angle(step.pose.theta - last_sent_->theta)));
-    if (travel < config_.min_travel && turn < config_.min_turn_deg) return false;
-  }
+  if (!worth_contributing(config_.send, step.value, step.pose, last_sent_)) return false;
   Contribution c;
   c.robot = robot_id_;
   c.seq = seq_ + 1;
@@ -120,10 +101,10 @@ nlohmann::json Contributor::json() const {
                       {"accepted", status_ ? status_->accepted : 0},
                       {"rejected", status_ ? status_->rejected : 0},
                       {"relocalisations", relocalisations_},
-                      {"min_agreement", config_.min_agreement},
-                      {"min_known", config_.min_known},
-                      {"min_travel_m", config_.min_travel},
-                      {"min_turn_deg", config_.min_turn_deg},
+                      {"min_agreement", config_.send.min_agreement},
+                      {"min_known", config_.send.min_known},
+                      {"min_travel_m", config_.send.min_travel},
+                      {"min_turn_deg", config_.send.min_turn_deg},
                       {"max_rejections", config_.max_rejections},
                       {"malformed_status", malformed_}};
   if (status_) j["last_verdict"] = to_string(status_->last_verdict);

@@ -18,6 +18,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "esfleet/core/contribution.hpp"
 #include "esfleet/core/geometry.hpp"
 #include "esfleet/core/laser_scan.hpp"
 #include "esfleet/core/localiser.hpp"
@@ -32,14 +33,9 @@ namespace esfleet::follower {
 struct ContributorConfig {
   /// Contribute at all (--contribute).
   bool enabled = false;
-  /// Evidence of the tracked pose: at least this agreement (FitnessValue::agreement) ...
-  double min_agreement = 0.8;
-  /// ... and this share of the end points on known cells (FitnessValue::known_share).
-  double min_known = 0.5;
-  /// Contribute again once the pose moved this far (metres) or turned this much (degrees)
-  /// since the last contribution.
-  double min_travel = 0.1;
-  double min_turn_deg = 5.0;
+  /// Which tracked scans are sent: evidence of the pose and spacing (core contribution.hpp,
+  /// the rule esfleet-bench contribute uses too).
+  esfleet::ContributorConfig send;
   /// Relocalise after this many rejections in a row (of contributions made since the last
   /// relocalisation).
   int max_rejections = 5;

@@ -85,7 +85,7 @@ FollowerApp::FollowerApp(FollowerOptions options, const std::atomic<bool>& stop)
     spdlog::info(
         "contributing tracked scans on {} (agreement >= {}, known >= {}, every {} m or {} deg); "
         "relocalising after {} refused in a row{}",
-        dds::kContributionTopic, c.min_agreement, c.min_known, c.min_travel, c.min_turn_deg,
+        dds::kContributionTopic, c.send.min_agreement, c.send.min_known, c.send.min_travel, c.send.min_turn_deg,
         c.max_rejections,
         o_.contribute_pose_offset.empty()
             ? ""

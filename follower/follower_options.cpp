@@ -109,14 +109,14 @@ void add_follower_flags(CLI::App& cli, FollowerOptions& o, app::ParamTable& para
               "while tracking, send scans with strong evidence and the pose to the leader, "
               "which writes the ones it accepts into the shared map; relocalise when it refuses "
               "too many in a row");
-  c->add_option("--contribute-min-agreement", o.contribute.min_agreement,
+  c->add_option("--contribute-min-agreement", o.contribute.send.min_agreement,
                 "send only scans whose tracked pose agrees at least this much with the map "
                 "(and with at least half the end points on known cells)")
       ->capture_default_str();
-  c->add_option("--contribute-min-travel", o.contribute.min_travel,
+  c->add_option("--contribute-min-travel", o.contribute.send.min_travel,
                 "send a scan once the robot moved this far (m) since the last one sent ...")
       ->capture_default_str();
-  c->add_option("--contribute-min-turn", o.contribute.min_turn_deg,
+  c->add_option("--contribute-min-turn", o.contribute.send.min_turn_deg,
                 "... or turned this much (degrees)")
       ->capture_default_str();
   c->add_option("--contribute-max-rejections", o.contribute.max_rejections,

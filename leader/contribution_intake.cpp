@@ -114,9 +114,12 @@ void ContributionIntake::handle(Slam& slam, const msg::ContributedScan& m) {
     ++t.accepted;
     ++accepted_;
     t.rejected_in_row = 0;
+  } else if (!result.rejected()) {
+    ++r->redundant;  // another robot mapped this place already: neither accepted nor refused
   } else {
     ++t.rejected;
-    ++t.rejected_in_row;
+    // Only refusals that doubt the pose count towards the follower's relocalisation.
+    if (result.pose_doubtful()) ++t.rejected_in_row;
     ++r->rejected_by[to_string(result.verdict)];
   }
   t.stamp_ns = static_cast<std::uint64_t>(realtime_ns());
@@ -125,7 +128,7 @@ void ContributionIntake::handle(Slam& slam, const msg::ContributedScan& m) {
 
 void ContributionIntake::log_robot(const std::string& id, Robot& r) {
   r.last_log = std::chrono::steady_clock::now();
-  const std::uint64_t checked = r.tally.accepted + r.tally.rejected;
+  const std::uint64_t checked = r.tally.accepted + r.tally.rejected + r.redundant;
   if (checked == r.logged) return;
   r.logged = checked;
   spdlog::info("contributions from {}: {}", id, counts_text(r.tally, r.rejected_by));
@@ -141,9 +144,9 @@ void ContributionIntake::log_summary() const {
     const app::Summary cpu = app::summarize(r.cpu_ms);
     const auto d = dropped.find(id);
     spdlog::info(
-        "contributions from {}: {}; {} stale (another map), {} dropped (queue full), {} "
+        "contributions from {}: {}, {} redundant; {} stale (another map), {} dropped (queue full), {} "
         "malformed; {:.2f} ms CPU per check (median), {:.2f} p95",
-        id, counts_text(r.tally, r.rejected_by), r.stale, d == dropped.end() ? 0 : d->second,
+        id, counts_text(r.tally, r.rejected_by), r.redundant, r.stale, d == dropped.end() ? 0 : d->second,
         r.malformed, cpu.median, cpu.p95);
   }
   if (ignored_robots_ > 0) {
@@ -165,6 +168,7 @@ nlohmann::json ContributionIntake::json() const {
     for (const auto& [verdict, n] : r.rejected_by) rejected[verdict] = n;
     const auto d = dropped.find(id);
     j[id] = {{"accepted", r.tally.accepted},
+             {"redundant", r.redundant},
              {"rejected", rejected},
              {"rejected_total", r.tally.rejected},
              {"stale", r.stale},

@@ -59,6 +59,7 @@ class ContributionIntake {
     dds::ContributionTally tally;
     std::map<std::string, std::uint64_t> rejected_by;  ///< verdict name -> count
     std::uint64_t stale = 0;
+    std::uint64_t redundant = 0;  ///< skipped: another robot's key scan is already there
     std::uint64_t malformed = 0;
     std::vector<double> cpu_ms;  ///< thread CPU of each Slam::contribute call
     /// In the robot's partition; null when it could not be created (DDS Security).

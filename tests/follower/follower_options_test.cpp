@@ -44,10 +44,10 @@ TEST(FollowerOptions, ContributionIsOffByDefaultWithTheDocumentedLimits) {
   FollowerOptions o;
   ASSERT_EQ(options_error({"--log", "x.clf"}, &o), "");
   EXPECT_FALSE(o.contribute.enabled);
-  EXPECT_EQ(o.contribute.min_agreement, 0.8);
-  EXPECT_EQ(o.contribute.min_known, 0.5);
-  EXPECT_EQ(o.contribute.min_travel, 0.1);
-  EXPECT_EQ(o.contribute.min_turn_deg, 5.0);
+  EXPECT_EQ(o.contribute.send.min_agreement, 0.8);
+  EXPECT_EQ(o.contribute.send.min_known, 0.5);
+  EXPECT_EQ(o.contribute.send.min_travel, 0.1);
+  EXPECT_EQ(o.contribute.send.min_turn_deg, 5.0);
   EXPECT_EQ(o.contribute.max_rejections, 5);
   EXPECT_EQ(o.contribute.pose_offset, Pose2{});
 }
@@ -61,9 +61,9 @@ TEST(FollowerOptions, ContributionFlagsAreParsed) {
                     &o),
       "");
   EXPECT_TRUE(o.contribute.enabled);
-  EXPECT_EQ(o.contribute.min_agreement, 0.9);
-  EXPECT_EQ(o.contribute.min_travel, 0.25);
-  EXPECT_EQ(o.contribute.min_turn_deg, 10.0);
+  EXPECT_EQ(o.contribute.send.min_agreement, 0.9);
+  EXPECT_EQ(o.contribute.send.min_travel, 0.25);
+  EXPECT_EQ(o.contribute.send.min_turn_deg, 10.0);
   EXPECT_EQ(o.contribute.max_rejections, 3);
   EXPECT_DOUBLE_EQ(o.contribute.pose_offset.x, 0.5);
   EXPECT_DOUBLE_EQ(o.contribute.pose_offset.y, -0.3);
@@ -73,9 +73,10 @@ TEST(FollowerOptions, ContributionFlagsAreParsed) {
 TEST(FollowerOptions, BadContributionFlagsAreRefusedNamingTheFlag) {
   EXPECT_TRUE(contains(options_error({"--contribute"}), "--contribute sends this robot's scans"));
   const std::vector<std::pair<std::vector<std::string>, std::string>> cases = {
-      {{"--contribute-min-agreement", "1.5"}, "--contribute-min-agreement"},
-      {{"--contribute-min-travel", "-1"}, "--contribute-min-travel"},
-      {{"--contribute-min-turn", "-5"}, "--contribute-min-turn"},
+      // The rule is core's (ContributorConfig): its fields as contribute.<field>.
+      {{"--contribute-min-agreement", "1.5"}, "contribute.min_agreement"},
+      {{"--contribute-min-travel", "-1"}, "contribute.min_travel"},
+      {{"--contribute-min-turn", "-5"}, "min_turn"},
       {{"--contribute-max-rejections", "0"}, "--contribute-max-rejections"},
       {{"--contribute-pose-offset", "1,2"}, "--contribute-pose-offset '1,2'"},
       {{"--contribute-pose-offset", "1,2,x"}, "--contribute-pose-offset"},

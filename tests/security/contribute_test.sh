@@ -11,7 +11,8 @@ source "$src/tests/integration/common.sh" security-contribute
 source "$(dirname "$0")/secure_common.sh"
 common=(--domain "$domain" --profile "$profile")
 
-make_certs "$work/certs" --role robot-1=contributor leader robot-1 robot-2
+"$src/deploy/security/make-fleet-certs.sh" --role robot-1=contributor "$work/certs" leader \
+  robot-1 robot-2 >"$work/certs.log" 2>&1 || fail "make-fleet-certs.sh failed: $(tail -3 "$work/certs.log")"
 
 start_leader leader --secure "$work/certs/leader" --accept-contributions
 wait_log_ended leader

@@ -92,6 +92,13 @@ struct ContributionResult {
   float contradiction = 0.0f;    ///< share of beams through cells seen occupied many times
   bool loop_closed = false;      ///< the graph was optimised (an anchor after a long chain)
   bool accepted() const { return verdict == ContributionVerdict::kAccepted; }
+  /// Refused in a way that says the claimed pose is likely wrong (unknown place, disagrees,
+  /// the refine moved it): what makes a follower relocalise after several in a row. A
+  /// contradiction may be the world changing (a door opened) or the map being off there.
+  bool pose_doubtful() const {
+    return verdict == ContributionVerdict::kUnknownPlace ||
+           verdict == ContributionVerdict::kDisagrees || verdict == ContributionVerdict::kRefineMoved;
+  }
   /// Refused: the scan does not fit the map (kRedundant and kAccepted are not).
   bool rejected() const {
     return verdict != ContributionVerdict::kAccepted && verdict != ContributionVerdict::kRedundant;
