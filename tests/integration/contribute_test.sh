@@ -4,7 +4,10 @@
 # a follower replays the same log from FIRST to LAST, localises in the shared map, tracks, and
 # contributes its tracked scans. With the defaults it starts inside the leader's map (scan 600;
 # from scan 1000, where the robot heads into ground the leader never mapped, a follower needs
-# some 430 scans to localise globally) and goes on past the leader's last scan.
+# some 430 scans to localise globally) and goes on past the leader's last scan. At 6x the
+# follower loses its pose soon after it leaves the leader's map (its contributions come back
+# too late to track on); at 2x, from scan 850 to 1499, it tracks through and the map grows from
+# 150 to 209 tiles (605 accepted).
 #   contribute (MODE ok): the leader accepts more than 50 contributions and refuses few, its
 #     final map has more tiles than the map of its own scans (an --offline run), and the
 #     follower ends with exactly the leader's final map.
@@ -21,7 +24,10 @@ bin=$1 log=$2 profile=$3 domain=$4 mode=$5
 max_scans=${6:-900} first=${7:-600} last=${8:-1500} rate=${9:-6} hint=${10:-}
 source "$(dirname "$0")/common.sh" "contribute-$mode"
 
-common=(--domain "$domain" --profile "$profile")
+# A map id and robot id of this run: another checkout running this test on the same domain at
+# the same time then costs only stale contributions, never a wrong map or a foreign answer.
+map_id="contribute-$mode-$$" robot="robot-$$"
+common=(--domain "$domain" --profile "$profile" --map-id "$map_id")
 slam=(--log "$log" --odometry on --max-scans "$max_scans" --seed 7)
 extra=()
 [ "$mode" = wrong ] && extra+=(--contribute-pose-offset 0.5,0.3,4)
@@ -38,7 +44,7 @@ pid_leader=$!
 pids+=("$pid_leader")
 
 "$bin/esfleet-follower" "${common[@]}" --log "$log" --odometry on --first-scan "$first" \
-  --max-scans "$last" --rate "$rate" --wait-complete --robot-id robot1 --seed 1 --contribute \
+  --max-scans "$last" --rate "$rate" --wait-complete --robot-id "$robot" --seed 1 --contribute \
   "${extra[@]}" --save-map "$work/follower" --timeout 150 >"$work/follower.log" 2>&1 &
 pid_follower=$!
 pids+=("$pid_follower")
@@ -49,14 +55,14 @@ kill -INT "$pid_leader"
 wait_for "$pid_leader" 30 "leader (SIGINT while serving)"
 echo "leader, follower and offline run took $(($(date +%s) - start)) s"
 
-python3 - "$work" "$mode" <<'PY' || fail "contribution check"
+python3 - "$work" "$mode" "$robot" <<'PY' || fail "contribution check"
 import json, sys
-work, mode = sys.argv[1], sys.argv[2]
+work, mode, robot = sys.argv[1], sys.argv[2], sys.argv[3]
 leader = json.load(open(f"{work}/leader/stats.json"))
 follower = json.load(open(f"{work}/follower/stats.json"))
-c = leader.get("contributions", {}).get("robot1")
+c = leader.get("contributions", {}).get(robot)
 if c is None:
-    print("the leader has no contributions from robot1:", leader.get("contributions"))
+    print(f"the leader has no contributions from {robot}:", leader.get("contributions"))
     sys.exit(1)
 fc = follower["contribution"]
 tiles = {name: sum(1 for _ in open(f"{work}/{name}/map.digest"))
