@@ -85,8 +85,8 @@ FollowerApp::FollowerApp(FollowerOptions options, const std::atomic<bool>& stop)
     spdlog::info(
         "contributing tracked scans on {} (agreement >= {}, known >= {}, every {} m or {} deg); "
         "relocalising after {} refused in a row{}",
-        dds::kContributionTopic, c.send.min_agreement, c.send.min_known, c.send.min_travel, c.send.min_turn_deg,
-        c.max_rejections,
+        dds::kContributionTopic, c.send.min_agreement, c.send.min_known, c.send.min_travel,
+        c.send.min_turn_deg, c.max_rejections,
         o_.contribute_pose_offset.empty()
             ? ""
             : "; TEST: pose offset " + o_.contribute_pose_offset + " added to every claim");

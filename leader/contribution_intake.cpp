@@ -144,10 +144,11 @@ void ContributionIntake::log_summary() const {
     const app::Summary cpu = app::summarize(r.cpu_ms);
     const auto d = dropped.find(id);
     spdlog::info(
-        "contributions from {}: {}, {} redundant; {} stale (another map), {} dropped (queue full), {} "
+        "contributions from {}: {}, {} redundant; {} stale (another map), {} dropped (queue full), "
+        "{} "
         "malformed; {:.2f} ms CPU per check (median), {:.2f} p95",
-        id, counts_text(r.tally, r.rejected_by), r.redundant, r.stale, d == dropped.end() ? 0 : d->second,
-        r.malformed, cpu.median, cpu.p95);
+        id, counts_text(r.tally, r.rejected_by), r.redundant, r.stale,
+        d == dropped.end() ? 0 : d->second, r.malformed, cpu.median, cpu.p95);
   }
   if (ignored_robots_ > 0) {
     spdlog::warn("{} contributions ignored: more than {} robots contributed", ignored_robots_,

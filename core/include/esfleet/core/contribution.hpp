@@ -97,7 +97,8 @@ struct ContributionResult {
   /// contradiction may be the world changing (a door opened) or the map being off there.
   bool pose_doubtful() const {
     return verdict == ContributionVerdict::kUnknownPlace ||
-           verdict == ContributionVerdict::kDisagrees || verdict == ContributionVerdict::kRefineMoved;
+           verdict == ContributionVerdict::kDisagrees ||
+           verdict == ContributionVerdict::kRefineMoved;
   }
   /// Refused: the scan does not fit the map (kRedundant and kAccepted are not).
   bool rejected() const {
