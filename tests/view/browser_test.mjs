@@ -244,12 +244,20 @@ try {
   const box = await pageA.locator('#view').boundingBox();
   const mk = await pageA.evaluate(() => window.esfleetView.marker('r1'));
   await pageA.mouse.click(box.x + mk.sx, box.y + mk.sy);
-  await sleep(300);
-  const followed = await pageA.evaluate(() => {
-    const v = window.esfleetView, m = v.marker('r1');
-    const c = document.getElementById('view');
-    return { follow: v.state().follow, dx: m.sx - c.width / 2, dy: m.sy - c.height / 2 };
-  });
+  // The robot keeps moving (a pose every 0.2 s): the nearest of several looks, 100 ms apart,
+  // is what the view re-centred on (a single look caught it 3.8 px on under load).
+  let followed = null;
+  for (let i = 0; i < 10; ++i) {
+    await sleep(i === 0 ? 300 : 100);
+    const f = await pageA.evaluate(() => {
+      const v = window.esfleetView, m = v.marker('r1');
+      const c = document.getElementById('view');
+      return { follow: v.state().follow, dx: m.sx - c.width / 2, dy: m.sy - c.height / 2 };
+    });
+    if (!followed || Math.hypot(f.dx, f.dy) < Math.hypot(followed.dx, followed.dy)) followed = f;
+    if (f.follow !== 'r1') followed = f;
+    if (followed.follow !== 'r1' || Math.hypot(followed.dx, followed.dy) < 1) break;
+  }
   check(followed.follow === 'r1' && Math.hypot(followed.dx, followed.dy) < 3,
         `clicking r1 follows it (marker ${Math.hypot(followed.dx, followed.dy).toFixed(1)} px ` +
         'from the centre)');
