@@ -9,35 +9,21 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
-#include "app/program.hpp"
+#include "options_test_harness.hpp"
 
 namespace esfleet::follower {
 namespace {
 
+using esfleet::testing::contains;
+
 /// Parses `args` like esfleet-follower's main() and finishes the options. Returns the error
 /// message ("" when the options are valid).
 std::string options_error(std::vector<std::string> args, FollowerOptions* out = nullptr) {
-  app::Program program("esfleet-follower", "follower", "test");
-  FollowerOptions o;
-  app::ParamTable params;
-  add_follower_flags(program.cli(), o, params);
-  args.insert(args.begin(), "esfleet-follower");
-  std::vector<char*> argv;
-  for (auto& a : args) argv.push_back(a.data());
-  if (program.parse(static_cast<int>(argv.size()), argv.data())) return "parse error";
-  try {
-    finish_follower_options(o, params);
-  } catch (const std::exception& e) {
-    return e.what();
-  }
-  if (out != nullptr) *out = o;
-  return "";
-}
-
-bool contains(const std::string& s, const std::string& part) {
-  return s.find(part) != std::string::npos;
+  return esfleet::testing::options_error("esfleet-follower", "follower", std::move(args),
+                                         add_follower_flags, finish_follower_options, out);
 }
 
 TEST(FollowerOptions, ContributionIsOffByDefaultWithTheDocumentedLimits) {

@@ -16,6 +16,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "app/program.hpp"
@@ -24,6 +25,7 @@
 #include "esfleet/core/ros_map_writer.hpp"
 #include "esfleet/core/tile_codec.hpp"
 #include "leader_app.hpp"
+#include "options_test_harness.hpp"
 #include "served_map.hpp"
 #include "synthetic_world.hpp"
 
@@ -32,32 +34,15 @@ namespace {
 
 namespace fs = std::filesystem;
 
+using esfleet::testing::contains;
+
 /// Parses `args` like esfleet-leader's main() and finishes the options. Returns the
 /// std::invalid_argument / UsageError message ("" when the options are valid); `parse_code` is
 /// set when the command line itself was refused.
 std::string options_error(std::vector<std::string> args, LeaderOptions* out = nullptr,
                           std::optional<int>* parse_code = nullptr) {
-  app::Program program("esfleet-leader", "leader", "test");
-  LeaderOptions o;
-  app::ParamTable params;
-  add_leader_flags(program.cli(), o, params);
-  args.insert(args.begin(), "esfleet-leader");
-  std::vector<char*> argv;
-  for (auto& a : args) argv.push_back(a.data());
-  const std::optional<int> code = program.parse(static_cast<int>(argv.size()), argv.data());
-  if (parse_code != nullptr) *parse_code = code;
-  if (code) return "parse error";
-  try {
-    finish_leader_options(o, params);
-  } catch (const std::exception& e) {
-    return e.what();
-  }
-  if (out != nullptr) *out = o;
-  return "";
-}
-
-bool contains(const std::string& s, const std::string& part) {
-  return s.find(part) != std::string::npos;
+  return esfleet::testing::options_error("esfleet-leader", "leader", std::move(args),
+                                         add_leader_flags, finish_leader_options, out, parse_code);
 }
 
 TEST(LeaderOptions, ExactlyOneInput) {
