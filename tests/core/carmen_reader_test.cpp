@@ -17,6 +17,8 @@
 #include <utility>
 #include <vector>
 
+#include <unistd.h>
+
 namespace esfleet {
 namespace {
 
@@ -29,7 +31,8 @@ std::string fixture(const std::string& name) {
 // A path in the test temp dir, unique per test so tests can run in parallel.
 std::string temp_path(const std::string& name) {
   const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  return ::testing::TempDir() + "carmen_reader_test_" + info->name() + "_" + name;
+  return ::testing::TempDir() + "carmen_reader_test_" + info->name() + "_" +
+         std::to_string(::getpid()) + "_" + name;
 }
 
 std::string read_bytes(const std::string& path) {

@@ -11,6 +11,9 @@
 #include <filesystem>
 #include <fstream>
 #include <numbers>
+#include <string>
+
+#include <unistd.h>
 
 #include "esfleet/core/tile_codec.hpp"
 #include "synthetic_world.hpp"
@@ -22,9 +25,10 @@ namespace fs = std::filesystem;
 using esfleet::testing::asymmetric_room;
 using esfleet::testing::make_scan;
 
-/// A fresh directory under the test temp dir.
+/// A fresh directory under the test temp dir, per process (two checkouts may test at once).
 fs::path fresh_dir(const std::string& name) {
-  const fs::path d = fs::path(::testing::TempDir()) / ("esfleet-checkpoint-" + name);
+  const fs::path d = fs::path(::testing::TempDir()) /
+                     ("esfleet-checkpoint-" + name + "-" + std::to_string(::getpid()));
   fs::remove_all(d);
   fs::create_directories(d);
   return d;
