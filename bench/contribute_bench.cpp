@@ -266,18 +266,19 @@ int run_contribute_bench(ContributeBenchOptions& o) {
     std::size_t rejected = 0;
     for (const auto& [why, k] : r.rejected) rejected += k;
     const double seconds = scans[r.end - 1].stamp - scans[r.start].stamp;
-    robots_json.push_back({{"robot", r.id},
-                           {"start", r.start},
-                           {"end", r.end},
-                           {"scans_to_pose", r.declared ? static_cast<long>(r.scans_to_pose) : -1},
-                           {"tracked", traj.size()},
-                           {"sent", r.sent},
-                           {"accepted", r.accepted},
-                           {"redundant", r.redundant},
-                           {"rejected", rejected},
-                           {"rejected_by", r.rejected},
-                           {"uplink_bytes_per_s", seconds > 0 ? r.bytes / seconds : 0.0},
-                           {"relations", relations_json(rel)}});
+    robots_json.push_back(
+        {{"robot", r.id},
+         {"start", r.start},
+         {"end", r.end},
+         {"scans_to_pose", r.declared ? static_cast<long>(r.scans_to_pose) : -1},
+         {"tracked", traj.size()},
+         {"sent", r.sent},
+         {"accepted", r.accepted},
+         {"redundant", r.redundant},
+         {"rejected", rejected},
+         {"rejected_by", r.rejected},
+         {"uplink_bytes_per_s", seconds > 0 ? static_cast<double>(r.bytes) / seconds : 0.0},
+         {"relations", relations_json(rel)}});
   }
   std::vector<TimedPose> followers, combined;
   for (std::size_t j = 0; j < n; ++j) {
