@@ -489,7 +489,7 @@ std::size_t LeaderApp::serve(const SlamRunStats& stats) {
       o_.linger < 0 ? std::string("until stopped (Ctrl-C)") : fmt::format("for {} s", o_.linger));
   using Clock = std::chrono::steady_clock;
   const auto until = Clock::now() + std::chrono::duration<double>(o_.linger < 0 ? 1e9 : o_.linger);
-  std::size_t accepted = 0;
+  std::size_t accepted = 0, since_checkpoint = 0;
   while (!stop_.load() && Clock::now() < until) {
     std::this_thread::sleep_for(std::chrono::milliseconds(intake_ ? 50 : 100));
     if (!intake_) continue;
@@ -498,7 +498,14 @@ std::size_t LeaderApp::serve(const SlamRunStats& stats) {
     const std::size_t n = intake_->process(slam_);
     if (n > 0) {
       accepted += n;
+      since_checkpoint += n;
       publish(true, 0.0f);
+    }
+    // A leader killed while serving keeps the contributions up to its last checkpoint: one
+    // every --checkpoint-every accepted contributions, as for its own scans.
+    if (checkpoints_ && since_checkpoint >= o_.checkpoint_every) {
+      checkpoints_->save(slam_, "contributions while serving");
+      since_checkpoint = 0;
     }
   }
   return accepted;

@@ -94,8 +94,9 @@ void add_leader_flags(CLI::App& cli, LeaderOptions& o, app::ParamTable& params) 
   cli.add_flag("--offline", o.offline, "run the log through the SLAM without DDS");
   cli.add_option("--max-scans", o.max_scans, "stop after N scans (0 = all)")->capture_default_str();
   cli.add_option("--checkpoint-every", o.checkpoint_every,
-                 "write OUT/checkpoint every N scans and at exit, for --resume (0 = never); a "
-                 "leader killed loses at most the N - 1 scans since the last one")
+                 "write OUT/checkpoint every N scans (while serving: every N accepted "
+                 "contributions) and at exit, for --resume (0 = never); a leader killed loses "
+                 "at most the N - 1 scans since the last one")
       ->capture_default_str();
   cli.add_option("--resume", o.resume_dir,
                  "continue the map checkpointed in DIR/checkpoint (same map id, epoch and "

@@ -88,6 +88,11 @@ else:
 sys.exit(0 if ok else 1)
 PY
 if [ "$mode" = ok ]; then
+  # Killed while serving, the leader would keep what it accepted up to its last checkpoint:
+  # one every 50 accepted contributions.
+  serving=$(grep -c "(contributions while serving)" "$work/leader.log" || true)
+  echo "checkpoints while serving: $serving"
+  [ "$serving" -ge 1 ] || fail "no checkpoint while serving contributions"
   cmp -s "$work/leader/map.digest" "$work/follower/map.digest" ||
     fail "the follower's map differs from the leader's: $(diff "$work/leader/map.digest" "$work/follower/map.digest" | head -5)"
 else
