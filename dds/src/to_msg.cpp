@@ -1,5 +1,7 @@
 #include "esfleet/dds/to_msg.hpp"
 
+#include <esfleet/msg/esfleetPubSubTypes.h>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -174,9 +176,18 @@ msg::ContributedScan contribution_to_msg(const Contribution& c, const Contributi
   m.angle_min(scan.angle_min);
   m.angle_increment(scan.angle_increment);
   m.max_range(scan.max_range);
-  std::vector<std::uint16_t> mm(scan.ranges.size());
-  std::transform(scan.ranges.begin(), scan.ranges.end(), mm.begin(),
-                 [&](float r) { return range_to_mm(r, scan.max_range); });
+  // Every step-th beam, the smallest step whose sample fits in one RTPS message: the fields
+  // besides the ranges (ids included) measured, then 2 bytes per beam.
+  msg::ContributedScanPubSubType type;
+  const std::size_t fixed = type.getSerializedSizeProvider(&m)();
+  const std::size_t room = kMaxContributionData > fixed ? (kMaxContributionData - fixed) / 2 : 1;
+  const std::size_t n = scan.ranges.size();
+  const std::size_t step = std::max<std::size_t>(1, (n + room - 1) / room);
+  m.angle_increment(scan.angle_increment * static_cast<float>(step));
+  std::vector<std::uint16_t> mm;
+  mm.reserve((n + step - 1) / step);
+  for (std::size_t i = 0; i < n; i += step)
+    mm.push_back(range_to_mm(scan.ranges[i], scan.max_range));
   m.ranges_mm(std::move(mm));
   return m;
 }

@@ -498,6 +498,36 @@ TEST(ContributionConvert, ScansOf361And500BeamsFitInOneRtpsMessageOf1400Bytes) {
   }
 }
 
+// Longer scans (a 1081-beam Hokuyo, a 811-beam SICK, 3000 beams) go as every k-th beam, the
+// smallest k that fits one RTPS message: the same beams at the same angles, never fragmented.
+TEST(ContributionConvert, LongScansAreSentAsEveryKthBeamAndStillFitOneRtpsMessage) {
+  msg::ContributedScanPubSubType type;
+  for (const std::size_t beams : {std::size_t{811}, std::size_t{1081}, std::size_t{3000}}) {
+    for (const std::size_t id_length : {std::size_t{8}, std::size_t{64}}) {
+      Contribution c = sample_contribution(beams);
+      c.robot = std::string(id_length, 'r');
+      msg::ContributedScan m =
+          contribution_to_msg(c, ContributionClaim{std::string(id_length, 'm'), 1, 1.0f, 1.0f});
+      const std::size_t size = type.getSerializedSizeProvider(&m)();
+      EXPECT_LE(size, kMaxContributionData) << beams;
+      const std::size_t sent = m.ranges_mm().size();
+      const std::size_t step = (beams + sent - 1) / sent;
+      ASSERT_GE(step, 2u) << beams;
+      EXPECT_EQ(sent, (beams + step - 1) / step);
+      // The smallest step: with one less, the ranges would not fit.
+      const std::size_t fixed = size - 2 * sent;
+      EXPECT_GT(fixed + 2 * ((beams + step - 2) / (step - 1)), kMaxContributionData) << beams;
+      const Contribution back = contribution_from_msg(m).contribution;
+      EXPECT_FLOAT_EQ(back.scan.angle_min, c.scan.angle_min);
+      EXPECT_FLOAT_EQ(back.scan.angle_increment, c.scan.angle_increment * static_cast<float>(step));
+      for (std::size_t j = 0; j < back.scan.ranges.size(); ++j) {
+        EXPECT_NEAR(back.scan.ranges[j], c.scan.ranges[j * step], 0.0006) << beams << " beam " << j;
+        EXPECT_NEAR(back.scan.angle(j), c.scan.angle(j * step), 1e-5) << beams << " beam " << j;
+      }
+    }
+  }
+}
+
 TEST(ContributionConvert, StatusRoundTripAndValidation) {
   ContributionTally t;
   t.last_seq = 99;

@@ -64,9 +64,16 @@ struct ContributionClaim {
 /// SLAM skips, as it skips them in metres).
 std::uint16_t range_to_mm(float range, float max_range);
 
+/// Most serialized bytes of a contributed scan: what Fast DDS 2.9.1 puts in one 1400-byte RTPS
+/// message before it fragments (see kTilePartBytes).
+inline constexpr std::size_t kMaxContributionData = 1284;
+
 /// A contributed scan (kContributionTopic): robot id and seq from `c`, the scan's ranges in
-/// millimetres (range_to_mm). The odometry is not sent (the leader uses only the pose).
-/// Throws std::invalid_argument for more than msg::kMaxScanBeams beams.
+/// millimetres (range_to_mm). The odometry is not sent (the leader uses only the pose). A scan
+/// too long for one RTPS message (more than about 530-590 beams, by the ids' lengths) is sent
+/// as every k-th beam, the smallest k that fits kMaxContributionData, with angle_increment
+/// k times the scan's: never fragmented. Throws std::invalid_argument for more than
+/// msg::kMaxScanBeams beams.
 msg::ContributedScan contribution_to_msg(const Contribution& c, const ContributionClaim& claim);
 
 /// The leader's answer to one robot's contributions, as kept by the leader and read by the
