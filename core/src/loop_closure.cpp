@@ -52,13 +52,63 @@ double loop_search_window_xy(const LoopClosureConfig& c, double travel) {
   return std::clamp(c.drift_floor_xy + c.drift_rate_xy * travel, c.window_xy, c.window_max_xy);
 }
 
+namespace {
+bool same_scan(const SubmapScan& a, const SubmapScan& b) {
+  // Bitwise pose equality: a scan moved by any amount is cast again.
+  return a.points == b.points && a.pose.x == b.pose.x && a.pose.y == b.pose.y &&
+         a.pose.theta == b.pose.theta;
+}
+}  // namespace
+
+void SubmapCache::cast(const SubmapScan& scan, const MapUpdateConfig& config, bool remove) {
+  update_map(*map_, *scan.points, scan.pose, config, remove, /*commit=*/false);
+  ++scans_cast_;
+}
+
+void SubmapCache::trim() {
+  if (map_ && map_->tile_count() > max_kept_tiles_) clear();
+}
+
+const GridMap& SubmapCache::build(const std::vector<SubmapScan>& scans,
+                                  const GridMapConfig& map_config,
+                                  const MapUpdateConfig& update_config) {
+  std::vector<bool> kept_new(scans.size(), false);
+  std::vector<const SubmapScan*> removed;
+  for (const SubmapScan& old : members_) {
+    bool kept = false;
+    for (std::size_t i = 0; i < scans.size() && !kept; ++i) {
+      if (!kept_new[i] && same_scan(old, scans[i])) kept = kept_new[i] = true;
+    }
+    if (!kept) removed.push_back(&old);
+  }
+  const auto kept = static_cast<std::size_t>(std::count(kept_new.begin(), kept_new.end(), true));
+  const std::size_t added = scans.size() - kept;
+  // From scratch when that casts fewer scans, or when tiles only removed scans touched have
+  // grown the submap by an eighth (they cost memory and the coarse search's dense copy).
+  const bool fresh = !map_ || removed.size() + added >= scans.size() ||
+                     map_->tile_count() > fresh_tiles_ + fresh_tiles_ / 8 + 1;
+  if (fresh) {
+    map_ = std::make_unique<GridMap>(map_config);
+    for (const SubmapScan& s : scans) cast(s, update_config, false);
+  } else {
+    for (const SubmapScan* s : removed) cast(*s, update_config, true);
+    for (std::size_t i = 0; i < scans.size(); ++i) {
+      if (!kept_new[i]) cast(scans[i], update_config, false);
+    }
+  }
+  map_->commit_update();
+  if (fresh) fresh_tiles_ = map_->tile_count();
+  members_ = scans;
+  return *map_;
+}
+
 std::optional<LoopMatch> find_loop_closure(const std::vector<KeyScan>& keys,
                                            const std::vector<Pose2>& poses,
                                            const ScanPoints& points, const Pose2& estimate,
                                            double path_length, const LoopClosureConfig& config,
                                            const GridMapConfig& map_config,
                                            const MapUpdateConfig& update_config,
-                                           const FitnessOptions& fitness) {
+                                           const FitnessOptions& fitness, SubmapCache* cache) {
   // Old scans near the estimate, nearest first.
   std::vector<std::pair<double, std::size_t>> near;
   bool trigger = false;
@@ -77,11 +127,12 @@ std::optional<LoopMatch> find_loop_closure(const std::vector<KeyScan>& keys,
   constexpr int kCoarseLevel = 2;
   GridMapConfig submap_config = map_config;
   submap_config.pyramid_levels = std::max(map_config.pyramid_levels, kCoarseLevel);
-  GridMap submap(submap_config);
-  for (const auto& [d, k] : near) {
-    update_map(submap, *keys[k].points, poses[k], update_config, false, false);
-  }
-  submap.commit_update();
+  std::vector<SubmapScan> scans;
+  scans.reserve(near.size());
+  for (const auto& [d, k] : near) scans.push_back({keys[k].points, poses[k]});
+  SubmapCache local;
+  const GridMap& submap =
+      (cache != nullptr ? *cache : local).build(scans, submap_config, update_config);
 
   // The window on the coarse level: translation steps of half a coarse cell, rotation steps
   // that move a 10 m beam end by about one coarse cell; the best candidate and its rival found

@@ -344,12 +344,14 @@ bool Slam::start_loop_search(std::size_t k) {
   }
   auto search = [ids = std::move(ids), old_keys = std::move(old_keys),
                  old_poses = std::move(old_poses), points = *keys_[k].points, estimate, path_length,
-                 lc = search_config, map = config_.map, update = config_.update,
+                 lc = search_config, map = config_.map, update = config_.update, shared = submap_,
                  fitness = slam_fitness_options(
                      config_.tracking, config_.tracking.interpolation !=
                                            Interpolation::kNone)]() -> std::optional<LoopMatch> {
+    const std::lock_guard lock(shared->mutex);
     auto match = find_loop_closure(old_keys, old_poses, points, estimate, path_length, lc, map,
-                                   update, fitness);
+                                   update, fitness, &shared->cache);
+    shared->cache.trim();
     if (match) match->anchor = ids[match->anchor];
     return match;
   };
@@ -392,6 +394,11 @@ SlamFinish Slam::finish(unsigned threads) {
   if (!config_.loop.enabled) return out;
   bool changed = settle();
   changed = (pending_loop_ && finish_loop_search()) || changed;
+  {
+    // No online search follows: the last submap's memory goes before the final pass's.
+    const std::lock_guard lock(submap_->mutex);
+    submap_->cache.clear();
+  }
   const LoopClosureConfig& lc = config_.loop;
   if (lc.final_pass && keys_.size() > 1) {
     LoopClosureConfig fc = lc;
@@ -415,11 +422,13 @@ SlamFinish Slam::finish(unsigned threads) {
       // Independent searches, results by index: the same for any number of threads.
       // find_loop_closure takes only scans at least min_travel back along the path: each
       // revisit is found from its later end.
+      // Each thread builds a search's submap from its previous one (the same result).
       auto work = [&](std::size_t first, std::size_t step) {
+        SubmapCache cache;
         for (std::size_t k = first * every; k < n; k += step * every) {
           matches[k] =
               find_loop_closure(keys_, poses, *keys_[k].points, poses[k], keys_[k].path_length, fc,
-                                config_.map, config_.update, fitness);
+                                config_.map, config_.update, fitness, &cache);
         }
       };
       std::vector<std::thread> pool;
@@ -461,6 +470,13 @@ SlamFinish Slam::finish(unsigned threads) {
 }
 
 void Slam::apply_graph() {
+  {
+    // The optimised graph moves the scans the last submap was built from, so the next search
+    // builds from scratch anyway: free it now, before the re-writes below (the run's peak
+    // memory). If a search holds it, it stays (the result does not depend on it).
+    const std::unique_lock lock(submap_->mutex, std::try_to_lock);
+    if (lock.owns_lock()) submap_->cache.clear();
+  }
   const double move_xy = config_.loop.move_min_xy;
   const double move_theta = deg_to_rad(config_.loop.move_min_theta_deg);
   bool changed = false;

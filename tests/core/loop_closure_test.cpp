@@ -7,6 +7,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <set>
+
+#include "esfleet/core/random.hpp"
 
 #include "synthetic_world.hpp"
 
@@ -113,6 +116,99 @@ TEST(LoopClosure, RefusesAnImplausiblyLargeCorrection) {
   const auto match = find_loop_closure(scene.keys, scene.poses, current, far, 12.0, config,
                                        GridMapConfig{}, MapUpdateConfig{}, FitnessOptions{});
   EXPECT_FALSE(match.has_value());
+}
+
+/// Every cell of `a` and `b` the same (counters, scores, coarse levels); a tile only one of them
+/// has must be all unknown.
+void expect_same_cells(const GridMap& a, const GridMap& b) {
+  std::set<TileKey> keys;
+  for (const TileKey& k : a.tile_keys()) keys.insert(k);
+  for (const TileKey& k : b.tile_keys()) keys.insert(k);
+  for (const TileKey& k : keys) {
+    const Tile* ta = a.find_tile(k);
+    const Tile* tb = b.find_tile(k);
+    const Tile* only = ta == nullptr ? tb : (tb == nullptr ? ta : nullptr);
+    if (only != nullptr) {
+      for (std::size_t i = 0; i < only->hit.size(); ++i) {
+        ASSERT_EQ(only->hit[i] + only->err[i], 0u) << "tile " << k.tx << "," << k.ty;
+      }
+      continue;
+    }
+    ASSERT_EQ(ta->hit, tb->hit) << "tile " << k.tx << "," << k.ty;
+    ASSERT_EQ(ta->err, tb->err);
+    ASSERT_EQ(ta->score, tb->score);
+    ASSERT_EQ(ta->coarse, tb->coarse);
+  }
+}
+
+TEST(SubmapCache, EveryBuildHoldsTheCellsOfASubmapBuiltFromScratch) {
+  // A pool of scans along a path; each search takes a sliding window of them, and now and then
+  // a closure moves some (their poses change by a little): the cache must give the submap a
+  // fresh build gives, and ray-cast fewer scans than fresh builds would.
+  const auto world = asymmetric_room();
+  Rng rng(7);
+  std::vector<SubmapScan> pool;
+  for (int i = 0; i < 40; ++i) {
+    const Pose2 truth{1.0 + 0.25 * i, i < 20 ? 1.5 : 6.5, rng.uniform(-3.0, 3.0)};
+    pool.push_back(
+        {std::make_shared<const ScanPoints>(prepare_scan(make_scan(world, truth))), truth});
+  }
+  GridMapConfig config;
+  config.pyramid_levels = 2;
+  const MapUpdateConfig update;
+  SubmapCache cache;
+  std::size_t fresh_casts = 0;
+  for (int search = 0; search < 30; ++search) {
+    SCOPED_TRACE("search " + std::to_string(search));
+    if (search % 7 == 6) {  // a closure moved the scans
+      for (SubmapScan& s : pool) s.pose.x += 0.01 * rng.uniform(-1.0, 1.0);
+    }
+    const std::size_t first = static_cast<std::size_t>(search) % 25;
+    std::vector<SubmapScan> scans(pool.begin() + static_cast<std::ptrdiff_t>(first),
+                                  pool.begin() + static_cast<std::ptrdiff_t>(first + 15));
+    std::swap(scans[0], scans[9]);  // the order of the nearest-first list changes too
+    GridMap fresh(config);
+    for (const SubmapScan& s : scans) update_map(fresh, *s.points, s.pose, update, false, false);
+    fresh.commit_update();
+    fresh_casts += scans.size();
+    const GridMap& cached = cache.build(scans, config, update);
+    expect_same_cells(cached, fresh);
+    if (HasFatalFailure()) return;
+    // The fitness the loop-closure search reads, at some poses and on the coarse level.
+    for (int level : {0, 2}) {
+      const FitnessOptions options{.level = level};
+      const FitnessEvaluator ec(cached, *pool[first + 3].points, options);
+      const FitnessEvaluator ef(fresh, *pool[first + 3].points, options);
+      for (int j = 0; j < 5; ++j) {
+        const Pose2 p{rng.uniform(0.0, 12.0), rng.uniform(0.0, 8.0), rng.uniform(-3.0, 3.0)};
+        EXPECT_EQ(ec.evaluate(p).fitness, ef.evaluate(p).fitness);
+      }
+    }
+  }
+  EXPECT_LT(cache.scans_cast(), fresh_casts / 3) << "the cache should save most ray-casting";
+}
+
+TEST(SubmapCache, LoopClosureFindsTheSameMatchWithAndWithoutIt) {
+  const Scene scene = old_keys();
+  const Pose2 truth{6.1, 4.3, 0.25};
+  const ScanPoints current = prepare_scan(make_scan(asymmetric_room(), truth));
+  const LoopClosureConfig config;
+  SubmapCache cache;
+  for (const Pose2 drifted : {Pose2{truth.x + 0.35, truth.y - 0.25, truth.theta + 0.05},
+                              Pose2{truth.x - 0.2, truth.y + 0.1, truth.theta - 0.03}}) {
+    const auto plain = find_loop_closure(scene.keys, scene.poses, current, drifted, 40.0, config,
+                                         GridMapConfig{}, MapUpdateConfig{}, FitnessOptions{});
+    const auto cached =
+        find_loop_closure(scene.keys, scene.poses, current, drifted, 40.0, config, GridMapConfig{},
+                          MapUpdateConfig{}, FitnessOptions{}, &cache);
+    ASSERT_TRUE(plain.has_value());
+    ASSERT_TRUE(cached.has_value());
+    EXPECT_EQ(plain->pose, cached->pose);
+    EXPECT_EQ(plain->value.fitness, cached->value.fitness);
+    EXPECT_EQ(plain->anchor, cached->anchor);
+  }
+  // The second search reused the first one's submap: 6 scans cast, not 12.
+  EXPECT_EQ(cache.scans_cast(), scene.keys.size());
 }
 
 }  // namespace

@@ -123,15 +123,59 @@ struct LoopMatch {
 /// back along the path: window_xy grown to the plausible drift, at most window_max_xy.
 double loop_search_window_xy(const LoopClosureConfig& config, double travel);
 
+/// One scan of a submap: its points (never changed once made) at a pose.
+struct SubmapScan {
+  std::shared_ptr<const ScanPoints> points;
+  Pose2 pose;
+};
+
+/// The last submap a loop-closure search built, kept to build the next one from. Consecutive
+/// searches (every 5th key scan) mostly use the same old scans at the same poses: the scans
+/// no longer in it, or moved since (a closure re-optimised the graph), are taken back out
+/// (their counters removed exactly) and only the new ones are ray-cast. The counters are
+/// integers and the scores follow from them, so every cell is what a submap built from scratch
+/// holds, bit for bit (loop_closure_test); tiles that only the removed scans touched stay, all
+/// unknown. Built from scratch instead when that is cheaper, or when such leftover tiles have
+/// doubled the submap's size. One search at a time (not thread-safe); the scans are held by
+/// their shared pointers, so a scan's identity (its points' address) is never reused while
+/// it is remembered.
+class SubmapCache {
+ public:
+  /// trim() frees a submap of more than `max_kept_tiles` tiles (about 53 kB each with the
+  /// loop closure's two coarse levels).
+  explicit SubmapCache(std::size_t max_kept_tiles = 32) : max_kept_tiles_(max_kept_tiles) {}
+  /// The submap of `scans` (update_map of each at its pose, committed), with at least
+  /// `pyramid_levels` coarse levels. The configurations must be the same on every call.
+  const GridMap& build(const std::vector<SubmapScan>& scans, const GridMapConfig& map_config,
+                       const MapUpdateConfig& update_config);
+  /// Scans ray-cast in or out over all calls (for tests and statistics).
+  std::size_t scans_cast() const { return scans_cast_; }
+  /// Frees the submap (the next build starts from scratch).
+  void clear() {
+    map_.reset();
+    members_.clear();
+  }
+  /// After a search: frees the submap if it is larger than the cache keeps between searches
+  /// (a bound on the memory it holds while the mapping thread runs).
+  void trim();
+
+ private:
+  void cast(const SubmapScan& scan, const MapUpdateConfig& config, bool remove);
+  std::size_t max_kept_tiles_;
+  std::unique_ptr<GridMap> map_;
+  std::vector<SubmapScan> members_;
+  std::size_t fresh_tiles_ = 0;
+  std::size_t scans_cast_ = 0;
+};
+
 /// Looks for a loop closure of the scan `points` whose current estimate is `estimate` and
 /// whose path length is `path_length`, against `keys` with their current poses `poses`
 /// (indices shared). Returns nothing when there are no old scans near or no acceptable match.
-std::optional<LoopMatch> find_loop_closure(const std::vector<KeyScan>& keys,
-                                           const std::vector<Pose2>& poses,
-                                           const ScanPoints& points, const Pose2& estimate,
-                                           double path_length, const LoopClosureConfig& config,
-                                           const GridMapConfig& map_config,
-                                           const MapUpdateConfig& update_config,
-                                           const FitnessOptions& fitness);
+/// With `cache`, the submap is built from the previous search's (the same result).
+std::optional<LoopMatch> find_loop_closure(
+    const std::vector<KeyScan>& keys, const std::vector<Pose2>& poses, const ScanPoints& points,
+    const Pose2& estimate, double path_length, const LoopClosureConfig& config,
+    const GridMapConfig& map_config, const MapUpdateConfig& update_config,
+    const FitnessOptions& fitness, SubmapCache* cache = nullptr);
 
 }  // namespace esfleet

@@ -15,6 +15,8 @@
 #include <cstdint>
 #include <deque>
 #include <future>
+#include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <vector>
@@ -234,6 +236,13 @@ class Slam {
     std::shared_future<std::optional<LoopMatch>> match;
   };
   std::optional<PendingLoop> pending_loop_;
+  /// The online searches' last submap (loop_closure.hpp): searches run one after another, the
+  /// mutex only guards against a second one running at once.
+  struct SharedSubmap {
+    std::mutex mutex;
+    SubmapCache cache;
+  };
+  std::shared_ptr<SharedSubmap> submap_ = std::make_shared<SharedSubmap>();
   /// A speculative search and what it needs to go back to its key scan if it closes the loop:
   /// the state right after that key scan was added, and the scans since.
   struct Speculation {
