@@ -41,6 +41,7 @@ struct EvalOptions {
   std::string relations;             ///< "t1 t2 x y z roll pitch yaw" per line (required)
   esfleet::RelationsOptions metric;  ///< time offset, tolerance, outlier thresholds
   bool json = false;                 ///< also print the result as one JSON line
+  double split_gap = 0.0;  ///< > 0: also score relations with t2 - t1 below / at least this apart
 
   /// Throws UsageError naming the flag. Checked here rather than with CLI11 validators, whose
   /// messages print DBL_MAX in full.
@@ -50,6 +51,9 @@ struct EvalOptions {
     }
     if (!std::isfinite(metric.tolerance) || metric.tolerance < 0.0) {
       throw UsageError("--tolerance must be a finite number >= 0");
+    }
+    if (!std::isfinite(split_gap) || split_gap < 0.0) {
+      throw UsageError("--split-gap must be a finite number >= 0");
     }
   }
 };
@@ -72,6 +76,10 @@ void add_eval_flags(CLI::App& app, EvalOptions& o) {
   app.add_option("--outlier-rot", o.metric.outlier_rot_deg,
                  "relations with a larger rotation error count as outliers, degrees")
       ->capture_default_str();
+  app.add_option("--split-gap", o.split_gap,
+                 "seconds; > 0: also score the relations with t2 - t1 below it (local) and at "
+                 "least it (revisits: loop closure) apart, separately")
+      ->capture_default_str();
   app.add_flag("--json", o.json, "also print the result as one JSON object on the last line");
 }
 
@@ -81,14 +89,32 @@ std::string format(const char* fmt, double a, double b) {
   return buf;
 }
 
+/// One part of the relations split by --split-gap, scored on its own.
+struct SplitPart {
+  const char* name;
+  esfleet::RelationsResult result;
+};
+
+/// The relations with t2 - t1 below `gap` (local) and at least `gap` (revisits), each scored.
+std::vector<SplitPart> score_split(const std::vector<esfleet::TimedPose>& trajectory,
+                                   const std::vector<esfleet::Relation>& relations, double gap,
+                                   const esfleet::RelationsOptions& metric) {
+  std::vector<esfleet::Relation> local, revisits;
+  for (const auto& rel : relations) (rel.t2 - rel.t1 < gap ? local : revisits).push_back(rel);
+  return {{"local", esfleet::evaluate_relations(trajectory, local, metric)},
+          {"revisits", esfleet::evaluate_relations(trajectory, revisits, metric)}};
+}
+
 /// Prints the scores; 0, or 1 when no relation matched.
 int evaluate(const EvalOptions& o) {
   std::vector<esfleet::TimedPose> trajectory;
   esfleet::RelationsResult r;
+  std::vector<SplitPart> split;
   try {
     trajectory = esfleet::read_trajectory(o.trajectory);
     const auto relations = esfleet::read_relations(o.relations);
     r = esfleet::evaluate_relations(trajectory, relations, o.metric);
+    if (o.split_gap > 0.0) split = score_split(trajectory, relations, o.split_gap, o.metric);
   } catch (const std::exception& e) {
     throw UsageError(e.what());  // bad input: "<path>:<line>: ..."
   }
@@ -105,17 +131,38 @@ int evaluate(const EvalOptions& o) {
               << format("%.3f m, outliers (> %g m", r.trans_max, o.metric.outlier_trans) << " or "
               << o.metric.outlier_rot_deg << " deg): " << r.outliers << '\n';
   }
+  for (const auto& part : split) {
+    const auto& p = part.result;
+    std::cout << part.name << (part.name[0] == 'l' ? " (t2 - t1 < " : " (t2 - t1 >= ")
+              << o.split_gap << " s): ";
+    if (p.matched > 0) {
+      std::cout << format("translation %.4f \u00b1 %.4f m", p.trans_mean, p.trans_std)
+                << format(", rotation %.2f \u00b1 %.2f deg", p.rot_mean_deg, p.rot_std_deg);
+    } else {
+      std::cout << "n/a";
+    }
+    std::cout << ", matched " << p.matched << " / " << p.total << '\n';
+  }
   if (o.json) {
     // With nothing matched the statistics are undefined: null, not a misleading 0.
     const auto stat = [&](double v) { return r.matched > 0 ? nlohmann::json(v) : nullptr; };
-    const nlohmann::json j = {{"trans_mean", stat(r.trans_mean)},
-                              {"trans_std", stat(r.trans_std)},
-                              {"rot_mean_deg", stat(r.rot_mean_deg)},
-                              {"rot_std_deg", stat(r.rot_std_deg)},
-                              {"trans_max", stat(r.trans_max)},
-                              {"outliers", r.outliers},
-                              {"matched", r.matched},
-                              {"total", r.total}};
+    nlohmann::json j = {{"trans_mean", stat(r.trans_mean)},
+                        {"trans_std", stat(r.trans_std)},
+                        {"rot_mean_deg", stat(r.rot_mean_deg)},
+                        {"rot_std_deg", stat(r.rot_std_deg)},
+                        {"trans_max", stat(r.trans_max)},
+                        {"outliers", r.outliers},
+                        {"matched", r.matched},
+                        {"total", r.total}};
+    for (const auto& part : split) {
+      const auto& p = part.result;
+      const auto pstat = [&](double v) { return p.matched > 0 ? nlohmann::json(v) : nullptr; };
+      j["split"][part.name] = {{"trans_mean", pstat(p.trans_mean)},
+                               {"rot_mean_deg", pstat(p.rot_mean_deg)},
+                               {"matched", p.matched},
+                               {"total", p.total}};
+    }
+    if (!split.empty()) j["split"]["gap_s"] = o.split_gap;
     std::cout << j.dump() << '\n';
   }
   std::cout.flush();
