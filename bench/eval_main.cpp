@@ -91,9 +91,15 @@ std::string format(const char* fmt, double a, double b) {
 
 /// One part of the relations split by --split-gap, scored on its own.
 struct SplitPart {
-  const char* name;
+  const char* name;   ///< "local" or "revisits"
+  const char* range;  ///< how t2 - t1 compares with the gap: "<" or ">="
   esfleet::RelationsResult result;
 };
+
+/// A statistic of `r` for the JSON: null when nothing matched (undefined, not a misleading 0).
+nlohmann::json stat(const esfleet::RelationsResult& r, double v) {
+  return r.matched > 0 ? nlohmann::json(v) : nullptr;
+}
 
 /// The relations with t2 - t1 below `gap` (local) and at least `gap` (revisits), each scored.
 std::vector<SplitPart> score_split(const std::vector<esfleet::TimedPose>& trajectory,
@@ -101,8 +107,8 @@ std::vector<SplitPart> score_split(const std::vector<esfleet::TimedPose>& trajec
                                    const esfleet::RelationsOptions& metric) {
   std::vector<esfleet::Relation> local, revisits;
   for (const auto& rel : relations) (rel.t2 - rel.t1 < gap ? local : revisits).push_back(rel);
-  return {{"local", esfleet::evaluate_relations(trajectory, local, metric)},
-          {"revisits", esfleet::evaluate_relations(trajectory, revisits, metric)}};
+  return {{"local", "<", esfleet::evaluate_relations(trajectory, local, metric)},
+          {"revisits", ">=", esfleet::evaluate_relations(trajectory, revisits, metric)}};
 }
 
 /// Prints the scores; 0, or 1 when no relation matched.
@@ -133,8 +139,7 @@ int evaluate(const EvalOptions& o) {
   }
   for (const auto& part : split) {
     const auto& p = part.result;
-    std::cout << part.name << (part.name[0] == 'l' ? " (t2 - t1 < " : " (t2 - t1 >= ")
-              << o.split_gap << " s): ";
+    std::cout << part.name << " (t2 - t1 " << part.range << ' ' << o.split_gap << " s): ";
     if (p.matched > 0) {
       std::cout << format("translation %.4f \u00b1 %.4f m", p.trans_mean, p.trans_std)
                 << format(", rotation %.2f \u00b1 %.2f deg", p.rot_mean_deg, p.rot_std_deg);
@@ -144,21 +149,18 @@ int evaluate(const EvalOptions& o) {
     std::cout << ", matched " << p.matched << " / " << p.total << '\n';
   }
   if (o.json) {
-    // With nothing matched the statistics are undefined: null, not a misleading 0.
-    const auto stat = [&](double v) { return r.matched > 0 ? nlohmann::json(v) : nullptr; };
-    nlohmann::json j = {{"trans_mean", stat(r.trans_mean)},
-                        {"trans_std", stat(r.trans_std)},
-                        {"rot_mean_deg", stat(r.rot_mean_deg)},
-                        {"rot_std_deg", stat(r.rot_std_deg)},
-                        {"trans_max", stat(r.trans_max)},
+    nlohmann::json j = {{"trans_mean", stat(r, r.trans_mean)},
+                        {"trans_std", stat(r, r.trans_std)},
+                        {"rot_mean_deg", stat(r, r.rot_mean_deg)},
+                        {"rot_std_deg", stat(r, r.rot_std_deg)},
+                        {"trans_max", stat(r, r.trans_max)},
                         {"outliers", r.outliers},
                         {"matched", r.matched},
                         {"total", r.total}};
     for (const auto& part : split) {
       const auto& p = part.result;
-      const auto pstat = [&](double v) { return p.matched > 0 ? nlohmann::json(v) : nullptr; };
-      j["split"][part.name] = {{"trans_mean", pstat(p.trans_mean)},
-                               {"rot_mean_deg", pstat(p.rot_mean_deg)},
+      j["split"][part.name] = {{"trans_mean", stat(p, p.trans_mean)},
+                               {"rot_mean_deg", stat(p, p.rot_mean_deg)},
                                {"matched", p.matched},
                                {"total", p.total}};
     }
