@@ -25,6 +25,8 @@
 # Run from the repository (the fleet's default world and log are relative paths).
 # Exit 0: all checks hold; 1: a check failed; 2: bad usage; 77: no network namespaces here.
 set -euo pipefail
+# A command that fails out of turn ends the soak: say where, never silently.
+trap 'echo "soak: ${BASH_SOURCE[0]}:$LINENO: a command failed (exit $?)" >&2' ERR
 
 usage() { sed -n '2,/^set -euo/p' "$0" | sed -e '$d' -e 's/^# \{0,1\}//' >&2; exit 2; }
 robots=16 minutes=30 loss=10 leader_kill=300 follower_kill=60 quiet=120 domain=91 seed=1
@@ -89,7 +91,8 @@ processes() {
     esac
   done
 }
-pid_of() { processes | awk -v r="$1" '$1 == r {print $2; exit}'; }
+# awk reads to the end: exiting at the first match could SIGPIPE processes, a failure under pipefail.
+pid_of() { processes | awk -v r="$1" '$1 == r && !found {print $2; found = 1}'; }
 
 "$testbed" exec "$run" 1 "$bin/esfleet-fleet" --netns "$run" --robots "$robots" \
   --duration "$duration" --domain "$domain" --profile deploy/fastdds/lan-udp.xml \
@@ -108,7 +111,9 @@ while kill -0 "$fleet_pid" 2>/dev/null; do
   if [ "$t" -ge "$next_sample" ]; then
     processes | while read -r role pid; do
       kb=$(awk '/^VmRSS/ {print $2}' "/proc/$pid/status" 2>/dev/null || true)
-      [ -n "$kb" ] && printf '%s\t%s\t%s\t%s\n' "$t" "$role" "$pid" "$kb"
+      # A process that ended since pgrep has no status: skip it (an if, not an && list, so that
+      # the loop's status, and under set -e the script's fate, never hangs on the last one).
+      if [ -n "$kb" ]; then printf '%s\t%s\t%s\t%s\n' "$t" "$role" "$pid" "$kb"; fi
     done >>"$out/rss.tsv"
     next_sample=$((next_sample + 10))
   fi

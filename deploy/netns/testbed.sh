@@ -141,7 +141,7 @@ stats)
   for ns in $(ip netns list | awk '{print $1}' | grep "^esf-$run-[0-9]" | sort -t- -k3n); do
     dropped=$(ip netns exec "$ns" nft list table inet esfleet_testbed 2>/dev/null |
       sed -n 's/.*counter packets \([0-9]*\).*/\1/p' || true)  # no table without --loss
-    tbf=$(tc -s -n "$ns" qdisc show dev eth0 | awk '/^qdisc tbf/{t=1} t&&/Sent/{print $2" bytes sent, "$7" dropped, "$9" delayed"; exit}' | tr -d ',')
+    tbf=$(tc -s -n "$ns" qdisc show dev eth0 | awk '/^qdisc tbf/{t=1} t&&/Sent/&&!done{print $2" bytes sent, "$7" dropped, "$9" delayed"; done=1}' | tr -d ',')
     echo "$ns: ${dropped:-0} UDP datagrams dropped; rate cap: ${tbf:-none}"
   done
   ;;
