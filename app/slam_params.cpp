@@ -109,8 +109,14 @@ void add_slam_params(ParamTable& t, SlamConfig* s, CarmenReaderOptions* r) {
                "final pass: second-best distinct score / best score a match may have");
   t.add_double("loop_final_rival_distance", &s->loop.final_rival_distance,
                "final pass: what counts as distinct for the ambiguity, metres");
+  t.add_int("loop_final_icp_neighbours", &s->loop.final_icp_neighbours,
+            "final pass: align each inserted scan to the N inserted before it (point-to-line "
+            "ICP); the graph takes the alignments that hold as edges (0 = off)");
   t.add_double("loop_max_chi2", &s->loop.max_chi2,
                "graph cost increase above which a loop closure is dropped");
+  t.add_double("loop_sigma_xy", &s->loop.sigma_xy,
+               "pose graph: standard deviation of a loop-closure edge, metres");
+  t.add_double("loop_sigma_theta", &s->loop.sigma_theta_deg, "... degrees");
   t.add_switch("recovery", &s->recovery.enabled,
                "a weak match triggers a wide correlative search (coarse to fine, the ES to "
                "finish), and a scan that still agrees poorly is not written into the map");

@@ -35,6 +35,10 @@ void LoopClosureConfig::validate() const {
   if (final_pass) {
     if (final_every < 1) throw std::invalid_argument("loop.final_every must be >= 1");
     if (final_rounds < 1) throw std::invalid_argument("loop.final_rounds must be >= 1");
+    if (final_icp_neighbours < 0) {
+      throw std::invalid_argument("loop.final_icp_neighbours must be >= 0");
+    }
+    if (final_icp_neighbours > 0) icp.validate();
     if (final_max_submap_scans < 1) {
       throw std::invalid_argument("loop.final_max_submap_scans must be >= 1");
     }

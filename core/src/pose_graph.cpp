@@ -89,8 +89,9 @@ PoseGraphResult PoseGraph::optimize(int max_iterations) {
   }
   const auto dim = static_cast<Eigen::Index>(3 * n);
   for (int it = 0; it < max_iterations; ++it) {
+    // The lower triangle only (what SimplicialLDLT reads): 21 entries per edge instead of 36.
     std::vector<Eigen::Triplet<double>> triplets;
-    triplets.reserve(edges_.size() * 36 + 3);
+    triplets.reserve(edges_.size() * 21 + 3);
     Eigen::VectorXd b = Eigen::VectorXd::Zero(dim);
     for (const auto& edge : edges_) {
       const Linearized l = linearize(nodes_[edge.from], nodes_[edge.to], edge.measurement);
@@ -104,10 +105,16 @@ PoseGraphResult PoseGraph::optimize(int max_iterations) {
       const auto j = static_cast<Eigen::Index>(3 * edge.to);
       for (int r = 0; r < 3; ++r) {
         for (int c = 0; c < 3; ++c) {
-          triplets.emplace_back(i + r, i + c, haa(r, c));
-          triplets.emplace_back(i + r, j + c, hab(r, c));
-          triplets.emplace_back(j + r, i + c, hab(c, r));
-          triplets.emplace_back(j + r, j + c, hbb(r, c));
+          if (c <= r) {
+            triplets.emplace_back(i + r, i + c, haa(r, c));
+            triplets.emplace_back(j + r, j + c, hbb(r, c));
+          }
+          // The off-diagonal block: H(i, j) = hab, H(j, i) = hab^T; keep the one below.
+          if (j > i) {
+            triplets.emplace_back(j + r, i + c, hab(c, r));
+          } else {
+            triplets.emplace_back(i + r, j + c, hab(r, c));
+          }
         }
       }
       b.segment<3>(i) += l.a.transpose() * omega * l.e;
@@ -117,7 +124,7 @@ PoseGraphResult PoseGraph::optimize(int max_iterations) {
     for (int r = 0; r < 3; ++r) triplets.emplace_back(r, r, 1e12);
     Eigen::SparseMatrix<double> h(dim, dim);
     h.setFromTriplets(triplets.begin(), triplets.end());
-    Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver(h);
+    Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower> solver(h);
     if (solver.info() != Eigen::Success) break;
     const Eigen::VectorXd dx = solver.solve(-b);
     if (solver.info() != Eigen::Success || !dx.allFinite()) break;

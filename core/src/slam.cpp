@@ -267,13 +267,7 @@ bool Slam::add_key_scan(const ScanPoints& points, const Pose2& pose, double stam
   const std::size_t k = graph_.add_node(pose);
   keys_.push_back(std::move(key));
   if (k > 0) {
-    PoseGraphEdge e;
-    e.from = last_own_key_;
-    e.to = k;
-    e.measurement = pose.relative_to(graph_.node(last_own_key_));
-    e.info_xy = 1.0 / (config_.key_sigma_xy * config_.key_sigma_xy);
-    e.info_theta = 1.0 / std::pow(deg_to_rad(config_.key_sigma_theta_deg), 2);
-    graph_.add_edge(e);
+    graph_.add_edge(key_edge(last_own_key_, k, pose.relative_to(graph_.node(last_own_key_))));
   }
   last_own_key_ = k;
   bool closed = false;
@@ -414,8 +408,10 @@ SlamFinish Slam::finish(unsigned threads) {
     threads = std::max(threads, 1u);
     const auto every = static_cast<std::size_t>(std::max(lc.final_every, 1));
     const std::size_t n = keys_.size();
-    // The graph as the online SLAM left it; each round replaces the previous round's edges.
-    const std::vector<PoseGraphEdge> online_edges = graph_.edges();
+    // The graph as the online SLAM left it (the chain sharpened by ICP); each round replaces
+    // the previous round's edges.
+    std::vector<PoseGraphEdge> online_edges = graph_.edges();
+    add_icp_edges(online_edges, threads, out);
     for (int round = 0; round < std::max(lc.final_rounds, 1); ++round) {
       const std::vector<Pose2> poses = graph_.nodes();
       std::vector<std::optional<LoopMatch>> matches(n);
@@ -447,7 +443,18 @@ SlamFinish Slam::finish(unsigned threads) {
       out.tried = (n + every - 1) / every;
       out.matched = matched;
       out.kept = 0;
-      if (matched == 0) break;
+      if (matched == 0) {
+        if (round == 0 && out.icp_aligned > 0) {
+          // No match from other times, but the chain is sharper: optimise with it alone.
+          PoseGraph chain;
+          chain.set_nodes(poses);
+          for (const PoseGraphEdge& e : online_edges) chain.add_edge(e);
+          chain.optimize(20);
+          graph_ = std::move(chain);
+          changed = true;
+        }
+        break;
+      }
       g.optimize(20);
       // Drop the matches the optimised graph disagrees with, and optimise again without them.
       PoseGraph kept;
@@ -467,6 +474,75 @@ SlamFinish Slam::finish(unsigned threads) {
   if (changed) apply_graph();
   out.ms = ms_since(t0);
   return out;
+}
+
+PoseGraphEdge Slam::key_edge(std::size_t from, std::size_t to, const Pose2& measurement) const {
+  PoseGraphEdge e;
+  e.from = from;
+  e.to = to;
+  e.measurement = measurement;
+  e.info_xy = 1.0 / (config_.key_sigma_xy * config_.key_sigma_xy);
+  e.info_theta = 1.0 / std::pow(deg_to_rad(config_.key_sigma_theta_deg), 2);
+  return e;
+}
+
+void Slam::add_icp_edges(std::vector<PoseGraphEdge>& edges, unsigned threads,
+                         SlamFinish& out) const {
+  const auto neighbours = static_cast<std::size_t>(std::max(config_.loop.final_icp_neighbours, 0));
+  if (neighbours == 0) return;
+  constexpr std::size_t kNone = static_cast<std::size_t>(-1);
+  // The leader's own key scans in the order it inserted them (contributed scans have chains of
+  // their own), and the chain edge into each: from the own key scan before it.
+  std::vector<std::size_t> own;
+  for (std::size_t k = 0; k < keys_.size(); ++k) {
+    if (keys_[k].contributor == 0) own.push_back(k);
+  }
+  std::vector<std::size_t> chain_edge(keys_.size(), kNone);
+  for (std::size_t i = 0; i < edges.size(); ++i) {
+    const PoseGraphEdge& e = edges[i];
+    if (e.huber == 0.0 && keys_[e.from].contributor == 0 && keys_[e.to].contributor == 0) {
+      chain_edge[e.to] = i;
+    }
+  }
+  struct Pair {
+    std::size_t from, to, edge;  // edge: the chain edge it sharpens, or kNone (a new edge)
+    Pose2 start;
+    std::optional<IcpResult> result;
+  };
+  std::vector<Pair> pairs;
+  for (std::size_t i = 1; i < own.size(); ++i) {
+    const std::size_t b = own[i];
+    for (std::size_t d = 1; d <= neighbours && d <= i; ++d) {
+      const std::size_t a = own[i - d];
+      const std::size_t e = chain_edge[b];
+      if (d == 1 && e != kNone && edges[e].from == a) {
+        pairs.push_back({a, b, e, edges[e].measurement, std::nullopt});
+      } else {
+        pairs.push_back({a, b, kNone, graph_.node(b).relative_to(graph_.node(a)), std::nullopt});
+      }
+    }
+  }
+  // Independent alignments, results by index: the same for any number of threads.
+  auto work = [&](std::size_t first, std::size_t step) {
+    for (std::size_t i = first; i < pairs.size(); i += step) {
+      Pair& p = pairs[i];
+      p.result = align_scans(*keys_[p.from].points, *keys_[p.to].points, p.start, config_.loop.icp);
+    }
+  };
+  std::vector<std::thread> pool;
+  for (std::size_t t = 1; t < threads; ++t) pool.emplace_back(work, t, threads);
+  work(0, threads);
+  for (std::thread& t : pool) t.join();
+  out.icp_tried = pairs.size();
+  for (const Pair& p : pairs) {
+    if (!p.result) continue;
+    ++out.icp_aligned;
+    if (p.edge != kNone) {
+      edges[p.edge].measurement = p.result->relative;
+    } else {
+      edges.push_back(key_edge(p.from, p.to, p.result->relative));
+    }
+  }
 }
 
 void Slam::apply_graph() {

@@ -18,6 +18,7 @@
 #include "esfleet/core/geometry.hpp"
 #include "esfleet/core/grid_map.hpp"
 #include "esfleet/core/map_update.hpp"
+#include "esfleet/core/scan_icp.hpp"
 #include "esfleet/core/scan_points.hpp"
 
 namespace esfleet {
@@ -107,6 +108,12 @@ struct LoopClosureConfig {
   double final_rival_distance = 0.3;  ///< metres
   double final_max_ambiguity = 0.9;
   double final_max_edge_chi2 = 9.0;  ///< whitened; edges above it after optimising are dropped
+  /// Final pass: each inserted scan is aligned by ICP (scan_icp.hpp) to the N inserted scans
+  /// before it. Where the ICP holds, the graph edge from the previous one takes its result in
+  /// place of the tracked motion, and the older ones become edges of their own (key edge
+  /// weights). 0 = off.
+  int final_icp_neighbours = 3;
+  IcpConfig icp;
   void validate() const;
 };
 

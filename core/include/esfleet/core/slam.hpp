@@ -122,6 +122,9 @@ struct SlamFinish {
   std::size_t tried = 0;    ///< key scans matched against their surroundings from other times
   std::size_t matched = 0;  ///< ... with an acceptable match (graph edges added)
   std::size_t kept = 0;     ///< ... that the optimised graph agreed with
+  std::size_t icp_tried =
+      0;  ///< pairs of nearby own key scans aligned by ICP (final_icp_neighbours)
+  std::size_t icp_aligned = 0;  ///< ... whose alignment held (graph edges)
   double ms = 0.0;
 };
 
@@ -201,6 +204,12 @@ class Slam {
   /// Moves every key scan whose optimised pose differs from where it is in the map, and
   /// re-derives the trajectory from the optimised key poses.
   void apply_graph();
+  /// The final pass's ICP edges (LoopClosureConfig::final_icp_neighbours) into `edges`, the
+  /// graph's edges: the chain edge into each own key scan takes the alignment with the one
+  /// before; the older neighbours' alignments are added. Deterministic for any `threads`.
+  void add_icp_edges(std::vector<PoseGraphEdge>& edges, unsigned threads, SlamFinish& out) const;
+  /// The edge between two of the leader's own key scans (key edge weights).
+  PoseGraphEdge key_edge(std::size_t from, std::size_t to, const Pose2& measurement) const;
 
   SlamConfig config_;
   GridMap map_;
