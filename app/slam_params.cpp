@@ -112,6 +112,8 @@ void add_slam_params(ParamTable& t, SlamConfig* s, CarmenReaderOptions* r) {
   t.add_int("loop_final_icp_neighbours", &s->loop.final_icp_neighbours,
             "final pass: align each inserted scan to the N inserted before it (point-to-line "
             "ICP); the graph takes the alignments that hold as edges (0 = off)");
+  t.add_double("loop_final_icp_max_distance", &s->loop.final_icp_max_distance,
+               "final pass: scans farther apart than this are not aligned by ICP, metres");
   t.add_double("loop_max_chi2", &s->loop.max_chi2,
                "graph cost increase above which a loop closure is dropped");
   t.add_double("loop_sigma_xy", &s->loop.sigma_xy,

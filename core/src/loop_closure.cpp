@@ -38,7 +38,10 @@ void LoopClosureConfig::validate() const {
     if (final_icp_neighbours < 0) {
       throw std::invalid_argument("loop.final_icp_neighbours must be >= 0");
     }
-    if (final_icp_neighbours > 0) icp.validate();
+    if (final_icp_neighbours > 0) {
+      positive(final_icp_max_distance, "final_icp_max_distance");
+      icp.validate();
+    }
     if (final_max_submap_scans < 1) {
       throw std::invalid_argument("loop.final_max_submap_scans must be >= 1");
     }

@@ -124,6 +124,8 @@ PoseGraphResult PoseGraph::optimize(int max_iterations) {
     for (int r = 0; r < 3; ++r) triplets.emplace_back(r, r, 1e12);
     Eigen::SparseMatrix<double> h(dim, dim);
     h.setFromTriplets(triplets.begin(), triplets.end());
+    // The triplets go before the factorisation (the peak memory of a large final pass).
+    triplets = {};
     Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower> solver(h);
     if (solver.info() != Eigen::Success) break;
     const Eigen::VectorXd dx = solver.solve(-b);
