@@ -112,7 +112,7 @@ struct LoopClosureConfig {
   /// before it. Where the ICP holds, the graph edge from the previous one takes its result in
   /// place of the tracked motion, and the older ones become edges of their own (key edge
   /// weights). 0 = off.
-  int final_icp_neighbours = 3;
+  int final_icp_neighbours = 0;
   double final_icp_max_distance = 0.5;  ///< pairs of scans farther apart are not aligned, metres
   IcpConfig icp;
   void validate() const;
