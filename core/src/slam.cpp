@@ -56,6 +56,16 @@ using Clock = std::chrono::steady_clock;
 constexpr std::size_t kMaxSpeculations = 3;
 /// The recovery window scales with the largest of this many last inter-scan motions.
 constexpr std::size_t kScaleSteps = 5;
+/// Runs work(t, threads) for t = 0 .. threads - 1, t = 0 on the calling thread, the rest on
+/// threads of their own; returns when all are done. Each work takes the indices t, t + threads,
+/// ... of a job list and writes its results by index, so they do not depend on `threads`.
+template <class Work>
+void run_strided(unsigned threads, const Work& work) {
+  std::vector<std::thread> pool;
+  for (std::size_t t = 1; t < threads; ++t) pool.emplace_back(work, t, std::size_t{threads});
+  work(std::size_t{0}, std::size_t{threads});
+  for (std::thread& t : pool) t.join();
+}
 double ms_since(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
 }
@@ -427,10 +437,7 @@ SlamFinish Slam::finish(unsigned threads) {
                                 config_.map, config_.update, fitness, &cache);
         }
       };
-      std::vector<std::thread> pool;
-      for (std::size_t t = 1; t < threads; ++t) pool.emplace_back(work, t, threads);
-      work(0, threads);
-      for (std::thread& t : pool) t.join();
+      run_strided(threads, work);
       PoseGraph g;
       g.set_nodes(poses);
       for (const PoseGraphEdge& e : online_edges) g.add_edge(e);
@@ -513,9 +520,9 @@ void Slam::add_icp_edges(std::vector<PoseGraphEdge>& edges, unsigned threads,
   std::vector<Pair> pairs;
   for (std::size_t i = 1; i < own.size(); ++i) {
     const std::size_t b = own[i];
+    const std::size_t e = chain_edge[b];
     for (std::size_t d = 1; d <= neighbours && d <= i; ++d) {
       const std::size_t a = own[i - d];
-      const std::size_t e = chain_edge[b];
       // Scans farther apart see the place from too far another viewpoint: fr079 kept every 8th
       // scan (0.8 m apart) scored worse with them aligned than with the tracked motion.
       const Pose2 rel = graph_.node(b).relative_to(graph_.node(a));
@@ -523,7 +530,7 @@ void Slam::add_icp_edges(std::vector<PoseGraphEdge>& edges, unsigned threads,
       if (d == 1 && e != kNone && edges[e].from == a) {
         pairs.push_back({a, b, e, edges[e].measurement, std::nullopt});
       } else {
-        pairs.push_back({a, b, kNone, graph_.node(b).relative_to(graph_.node(a)), std::nullopt});
+        pairs.push_back({a, b, kNone, rel, std::nullopt});
       }
     }
   }
@@ -536,10 +543,7 @@ void Slam::add_icp_edges(std::vector<PoseGraphEdge>& edges, unsigned threads,
       if (r) p.aligned = r->relative;
     }
   };
-  std::vector<std::thread> pool;
-  for (std::size_t t = 1; t < threads; ++t) pool.emplace_back(work, t, threads);
-  work(0, threads);
-  for (std::thread& t : pool) t.join();
+  run_strided(std::max(threads, 1u), work);
   out.icp_tried = pairs.size();
   for (const Pair& p : pairs) {
     if (!p.aligned) continue;
