@@ -12,6 +12,9 @@ void add_slam_params(ParamTable& t, SlamConfig* s, CarmenReaderOptions* r) {
                "samples per metre along a beam when exact_traversal is off (paper alpha^Res)");
   t.add_double("no_return_clear_range", &s->update.no_return_clear_range,
                "no-return beams clear cells up to this range, metres (0 = not at all)");
+  t.add_double("free_margin", &s->update.free_margin,
+               "a beam clears the cells it crosses up to this short of its end point, metres "
+               "(0 = every crossed cell, the paper)");
   // ES (paper Eq. 9, Table 2).
   t.add_int("mu", &s->tracking.es.mu, "ES parents");
   t.add_int("iterations", &s->tracking.es.iterations, "ES iterations T per scan (one child each)");

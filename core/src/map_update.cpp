@@ -17,6 +17,10 @@ void MapUpdateConfig::validate() const {
     throw std::invalid_argument("update.no_return_clear_range must be >= 0, got " +
                                 std::to_string(no_return_clear_range));
   }
+  if (!(free_margin >= 0.0) || !std::isfinite(free_margin)) {
+    throw std::invalid_argument("update.free_margin must be >= 0, got " +
+                                std::to_string(free_margin));
+  }
 }
 
 namespace {
@@ -55,20 +59,32 @@ MapUpdateStats update_map(GridMap& map, const ScanPoints& points, const Pose2& p
     const double ey = sy + (s * points.x[i] + c * points.y[i]) * inv;
     const CellIndex end{static_cast<std::int32_t>(std::floor(ex)),
                         static_cast<std::int32_t>(std::floor(ey))};
-    if (config.exact_traversal) {
-      traverse(sx, sy, ex, ey, [&](CellIndex cell) { counter.err(cell); });
-    } else {
-      // The paper's sampling: L = ceil(alpha_res * d) points along the beam, the last one the
-      // end point; consecutive samples in the same cell count once.
-      const auto samples = static_cast<int>(std::ceil(config.alpha_res * points.range[i]));
-      CellIndex last{std::numeric_limits<std::int32_t>::min(), 0};
-      for (int j = 0; j < samples; ++j) {
-        const double f = static_cast<double>(j) / samples;
-        const CellIndex cell{static_cast<std::int32_t>(std::floor(sx + f * (ex - sx))),
-                             static_cast<std::int32_t>(std::floor(sy + f * (ey - sy)))};
-        if (cell == end || cell == last) continue;
-        counter.err(cell);
-        last = cell;
+    // The err counting ends at `stop` (the beam shortened by the margin); its cell is counted
+    // too unless it is the end point's.
+    const double range = points.range[i];
+    if (range > config.free_margin) {
+      const double f = config.free_margin > 0.0 ? (range - config.free_margin) / range : 1.0;
+      const double stop_x = f < 1.0 ? sx + f * (ex - sx) : ex;
+      const double stop_y = f < 1.0 ? sy + f * (ey - sy) : ey;
+      const CellIndex stop{static_cast<std::int32_t>(std::floor(stop_x)),
+                           static_cast<std::int32_t>(std::floor(stop_y))};
+      if (config.exact_traversal) {
+        traverse(sx, sy, stop_x, stop_y, [&](CellIndex cell) { counter.err(cell); });
+        if (stop != end) counter.err(stop);
+      } else {
+        // The paper's sampling: L = ceil(alpha_res * d) points along the beam, the last one the
+        // end point; consecutive samples in the same cell count once.
+        const auto samples = static_cast<int>(std::ceil(config.alpha_res * range));
+        CellIndex last{std::numeric_limits<std::int32_t>::min(), 0};
+        for (int j = 0; j < samples; ++j) {
+          const double g = static_cast<double>(j) / samples;
+          if (g > f) break;
+          const CellIndex cell{static_cast<std::int32_t>(std::floor(sx + g * (ex - sx))),
+                               static_cast<std::int32_t>(std::floor(sy + g * (ey - sy)))};
+          if (cell == end || cell == last) continue;
+          counter.err(cell);
+          last = cell;
+        }
       }
     }
     counter.hit(end);

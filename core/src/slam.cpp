@@ -36,6 +36,7 @@ SlamConfig SlamConfig::paper() {
   c.tracking.turn_hypotheses = false;
   c.tracking.interpolation = Interpolation::kNone;
   c.tracking.refine = false;
+  c.update.free_margin = 0.0;
   c.tracking.prior_sigma_xy = 0.0;
   c.tracking.prior_sigma_theta_deg = 0.0;
   c.insert_min_travel = 0.0;

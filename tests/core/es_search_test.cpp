@@ -14,13 +14,16 @@ namespace {
 using testing::asymmetric_room;
 using testing::make_scan;
 
-// Map of the synthetic room built from scans at known poses (what the leader would have).
+// Map of the synthetic room built from scans at known poses (what the leader would have), the
+// paper's way (every crossed cell cleared), as the paper's ES below expects.
 GridMap room_map() {
   GridMap map;
   const auto world = asymmetric_room();
   const Pose2 poses[] = {{2, 2, 0.3},  {6, 4, 1.2},  {10, 6, -2.0}, {5.5, 7, -1.0},
                          {2, 5, -0.4}, {10, 1, 2.5}, {6, 1.5, 1.6}, {3, 7, 0.1}};
-  for (const Pose2& p : poses) update_map(map, prepare_scan(make_scan(world, p)), p);
+  MapUpdateConfig paper;
+  paper.free_margin = 0.0;
+  for (const Pose2& p : poses) update_map(map, prepare_scan(make_scan(world, p)), p, paper);
   return map;
 }
 

@@ -4,8 +4,10 @@
 
 #include <cmath>
 #include <numbers>
+#include <stdexcept>
 
 #include "esfleet/core/scan_points.hpp"
+#include "esfleet/core/slam.hpp"
 
 namespace esfleet {
 namespace {
@@ -107,6 +109,47 @@ TEST(MapUpdateTest, PaperSamplingCountsEachSampledCellOnce) {
   EXPECT_EQ(map.err({0, 0}), 1u);
   EXPECT_EQ(map.err({2, 0}), 1u);
   EXPECT_EQ(map.hit({3, 0}), 1u);
+}
+
+TEST(MapUpdateTest, FreeMarginLeavesTheCellsJustBeforeTheEndPoint) {
+  // A 3 m beam along +x from (0.5, 0.5) ends in cell 3; with a 1.6 m margin the clearing stops
+  // at x = 1.9 (cell 1, still cleared), so cell 2 keeps no err. Both traversals agree.
+  MapUpdateConfig exact;
+  exact.free_margin = 1.6;
+  MapUpdateConfig sampled = exact;
+  sampled.exact_traversal = false;
+  sampled.alpha_res = 4.0;
+  for (const MapUpdateConfig& config : {exact, sampled}) {
+    GridMap map = unit_map();
+    const ScanPoints beam = prepare_scan(scan_of({3.0f}, 0.0f, 0.0f));
+    const auto stats = update_map(map, beam, Pose2{0.5, 0.5, 0.0}, config);
+    EXPECT_EQ(stats.errs, 2u);
+    EXPECT_EQ(map.err({0, 0}), 1u);
+    EXPECT_EQ(map.err({1, 0}), 1u);
+    EXPECT_EQ(map.err({2, 0}), 0u);
+    EXPECT_EQ(map.hit({2, 0}), 0u);
+    EXPECT_EQ(map.hit({3, 0}), 1u);
+    // Removing the same scan undoes exactly what it added (loop closure moves scans this way).
+    update_map(map, beam, Pose2{0.5, 0.5, 0.0}, config, /*remove=*/true);
+    for (int x = 0; x < 4; ++x) {
+      EXPECT_EQ(map.err({x, 0}), 0u) << x;
+      EXPECT_EQ(map.hit({x, 0}), 0u) << x;
+    }
+  }
+  // A beam shorter than the margin clears nothing and still hits.
+  GridMap map = unit_map();
+  const auto stats =
+      update_map(map, prepare_scan(scan_of({1.0f}, 0.0f, 0.0f)), Pose2{0.5, 0.5, 0.0}, exact);
+  EXPECT_EQ(stats.errs, 0u);
+  EXPECT_EQ(map.hit({1, 0}), 1u);
+  // The paper clears every crossed cell; a negative or NaN margin is refused.
+  EXPECT_EQ(SlamConfig::paper().update.free_margin, 0.0);
+  EXPECT_GT(SlamConfig{}.update.free_margin, 0.0);
+  MapUpdateConfig bad;
+  bad.free_margin = -0.1;
+  EXPECT_THROW(bad.validate(), std::invalid_argument);
+  bad.free_margin = std::nan("");
+  EXPECT_THROW(bad.validate(), std::invalid_argument);
 }
 
 TEST(MapUpdateTest, CommitBumpsVersionOfTouchedTiles) {

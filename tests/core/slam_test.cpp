@@ -251,6 +251,10 @@ SlamConfig final_pass_config() {
   c.loop.min_travel = 3.0;
   c.loop.final_every = 1;
   c.loop.final_icp_neighbours = 3;  // the final pass's tests cover its ICP too
+  // Noise-free synthetic ranges: the free-space margin (map_update.hpp), there for range noise,
+  // only takes evidence away here. Measured with it (0.15 m): seed 2's heading error after the
+  // final pass 1.15 deg of 1.5 (0.46 without), seed 1's 0.54 (0.32).
+  c.update.free_margin = 0.0;
   return c;
 }
 
