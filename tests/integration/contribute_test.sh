@@ -4,10 +4,12 @@
 # a follower replays the same log from FIRST to LAST, localises in the shared map, tracks, and
 # contributes its tracked scans. With the defaults it starts inside the leader's map (scan 600;
 # from scan 1000, where the robot heads into ground the leader never mapped, a follower needs
-# some 430 scans to localise globally) and goes on past the leader's last scan. At 6x the
-# follower loses its pose soon after it leaves the leader's map (its contributions come back
-# too late to track on); at 2x, from scan 850 to 1499, it tracks through and the map grows from
-# 150 to 209 tiles (605 accepted).
+# some 430 scans to localise globally) and goes on past the leader's last scan, turning at
+# scan ~1050 into a side corridor the leader only saw from the main one: its contributions
+# extend the map there. With the free-space margin (docs/slam.md item 8) it tracks through at 6x
+# for leader seeds 1-4 and 7; without it it lost its pose at that turn for seed 4 (3 of 3 runs)
+# and, with --loop-final-icp-neighbours 3, for 3 of those 5 seeds (why the ICP is off). At 2x,
+# from scan 850 to 1499, the map grew from 150 to 209 tiles (605 accepted; before the margin).
 #   contribute (MODE ok): the leader accepts more than 50 contributions and refuses few, its
 #     final map has more tiles than the map of its own scans (an --offline run), and the
 #     follower ends with exactly the leader's final map.
