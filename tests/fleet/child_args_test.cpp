@@ -31,10 +31,27 @@ TEST(ChildArgs, SplitArgsAtAnyWhiteSpace) {
 
 TEST(ChildArgs, LeaderMapsTheLogAndLingers) {
   const FleetOptions o = options();
-  EXPECT_EQ(leader_argv(o, "BIN"),
-            (Args{"BIN/esfleet-leader", "--log", "a.clf", "--rate", "0.000000", "--linger", "-1",
-                  "--out", "OUT/leader", "--domain", "9", "--profile", "p.xml", "--odometry", "on",
-                  "--loop-final", "off", "--loop-window-max-xy", "0"}));
+  EXPECT_EQ(leader_argv(o, "BIN"), (Args{"BIN/esfleet-leader",
+                                         "--log",
+                                         "a.clf",
+                                         "--rate",
+                                         "0.000000",
+                                         "--linger",
+                                         "-1",
+                                         "--out",
+                                         "OUT/leader",
+                                         "--domain",
+                                         "9",
+                                         "--profile",
+                                         "p.xml",
+                                         "--odometry",
+                                         "on",
+                                         "--loop-final",
+                                         "off",
+                                         "--loop-window-max-xy",
+                                         "0",
+                                         "--free-margin",
+                                         "0"}));
 }
 
 TEST(ChildArgs, ARestartedLeaderResumesItsCheckpoint) {
