@@ -50,6 +50,9 @@ void add_slam_params(ParamTable& t, SlamConfig* s, CarmenReaderOptions* r) {
                              {"all", Interpolation::kAll}},
                             "bilinear sub-cell map values in the fitness: nowhere, in the final "
                             "polish, or also in the ES");
+  t.add_double("search_point_spacing", &s->tracking.search_point_spacing,
+               "the ES scores only end points at least this far from the previous one it "
+               "kept, metres (0 = every end point, the paper); the polish scores all");
   t.add_switch("refine", &s->tracking.refine,
                "polish the ES result with a deterministic pattern search");
   t.add_double("prior_sigma_xy", &s->tracking.prior_sigma_xy,

@@ -43,7 +43,9 @@ struct FleetOptions {
   /// Extra esfleet-leader flags, one string split at white space.
   /// The flags data/worlds/mit-csail was mapped with: the leader's map frame is then the
   /// simulated world's, point for point (data/worlds/README.md).
-  std::string leader_args = "--odometry on --loop-final off --loop-window-max-xy 0 --free-margin 0";
+  std::string leader_args =
+      "--odometry on --loop-final off --loop-window-max-xy 0 --free-margin 0 "
+      "--search-point-spacing 0";
   /// Extra esfleet-follower flags, one string split at white space.
   std::string follower_args = "--odometry on";
   /// Extra esfleet-sim flags, one string split at white space.

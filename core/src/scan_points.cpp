@@ -28,4 +28,21 @@ ScanPoints prepare_scan(const LaserScan& scan, float min_range, float max_range)
   return p;
 }
 
+ScanPoints thin_scan(const ScanPoints& points, double min_spacing) {
+  if (!(min_spacing > 0.0)) return points;
+  ScanPoints p;
+  p.no_return_angles = points.no_return_angles;
+  const double d2 = min_spacing * min_spacing;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    if (!p.x.empty()) {
+      const double dx = points.x[i] - p.x.back(), dy = points.y[i] - p.y.back();
+      if (dx * dx + dy * dy < d2) continue;
+    }
+    p.x.push_back(points.x[i]);
+    p.y.push_back(points.y[i]);
+    p.range.push_back(points.range[i]);
+  }
+  return p;
+}
+
 }  // namespace esfleet

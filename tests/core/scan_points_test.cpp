@@ -60,5 +60,29 @@ TEST(PrepareScan, NonFiniteAndNegativeReadingsAreDropped) {
   EXPECT_TRUE(p.no_return_angles.empty());  // an infinite reading is not trusted as one
 }
 
+TEST(ThinScan, KeepsPointsAtLeastTheSpacingFromTheLastOneKept) {
+  ScanPoints p;
+  // A near wall sampled every 3 cm, then a jump back to a far one and a point 4 cm past it.
+  for (int i = 0; i < 9; ++i) {
+    p.x.push_back(1.0f);
+    p.y.push_back(0.03f * static_cast<float>(i));
+    p.range.push_back(std::hypot(p.x.back(), p.y.back()));
+  }
+  p.x.insert(p.x.end(), {5.0f, 5.0f});
+  p.y.insert(p.y.end(), {0.3f, 0.34f});
+  p.range.insert(p.range.end(), {std::hypot(5.0f, 0.3f), std::hypot(5.0f, 0.34f)});
+  p.no_return_angles = {0.5f, 0.6f};
+  const ScanPoints t = thin_scan(p, 0.1);
+  // 0, 0.12 and 0.24 m along the wall (each 0.12 m from the last kept), then the far wall.
+  EXPECT_EQ(t.y, (std::vector<float>{0.0f, 0.12f, 0.24f, 0.3f}));
+  EXPECT_EQ(t.x, (std::vector<float>{1.0f, 1.0f, 1.0f, 5.0f}));
+  EXPECT_EQ(t.range, (std::vector<float>{p.range[0], p.range[4], p.range[8], p.range[9]}));
+  EXPECT_EQ(t.no_return_angles, p.no_return_angles);
+  // No spacing keeps every point; so does a spacing below the closest pair.
+  EXPECT_EQ(thin_scan(p, 0.0).x, p.x);
+  EXPECT_EQ(thin_scan(p, 0.01).size(), p.size());
+  EXPECT_EQ(thin_scan(ScanPoints{}, 0.1).size(), 0u);
+}
+
 }  // namespace
 }  // namespace esfleet

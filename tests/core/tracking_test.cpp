@@ -7,9 +7,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <random>
 
+#include "esfleet/core/slam.hpp"
 #include "synthetic_world.hpp"
 
 namespace esfleet {
@@ -131,6 +133,45 @@ TEST(TrackingConfig, ValidationNamesTheField) {
     FAIL() << "accepted a negative spread";
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("init_sigma_xy"), std::string::npos) << e.what();
+  }
+  for (const double bad : {-0.1, std::nan(""), std::numeric_limits<double>::infinity()}) {
+    TrackingConfig s;
+    s.search_point_spacing = bad;
+    try {
+      s.validate();
+      FAIL() << "accepted search_point_spacing " << bad;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("search_point_spacing"), std::string::npos) << e.what();
+    }
+  }
+}
+
+TEST(TrackScan, TheSearchScoresThinnedPointsAndReportsEveryOne) {
+  // The paper's ES scores every end point; the default only those 0.1 m apart, and still
+  // reports the fitness terms over all of them.
+  EXPECT_EQ(SlamConfig::paper().tracking.search_point_spacing, 0.0);
+  EXPECT_GT(TrackingConfig{}.search_point_spacing, 0.0);
+  const auto world = asymmetric_room();
+  const GridMap map = testing::map_of(world, 12, 8);
+  const Pose2 truth{5.0, 3.0, 0.42};
+  const LaserScan scan = make_scan(world, truth, 0.2);
+  const ScanPoints points = prepare_scan(scan);
+  ASSERT_LT(thin_scan(points, 0.1).size(), points.size() - 20);  // it thins here: 139 of 181
+  MotionState m;
+  m.last = TimedPose{0.0, {5.04, 2.97, 0.40}};
+  for (const double spacing : {0.0, 0.1}) {
+    TrackingConfig c;
+    c.search_point_spacing = spacing;
+    c.refine = false;  // the value then comes from the search itself
+    const EvolutionStrategy es(c.es);
+    Rng rng(3);
+    const TrackResult r = track_scan(c, es, rng, map, points, scan, m);
+    EXPECT_EQ(static_cast<std::size_t>(r.result.value.n_points), points.size())
+        << "spacing " << spacing;
+    EXPECT_LT(std::hypot(r.result.pose.x - truth.x, r.result.pose.y - truth.y), 0.05)
+        << "spacing " << spacing;
+    EXPECT_LT(std::abs(normalize_angle(r.result.pose.theta - truth.theta)), deg_to_rad(1.0))
+        << "spacing " << spacing;
   }
 }
 

@@ -51,6 +51,8 @@ TEST(ChildArgs, LeaderMapsTheLogAndLingers) {
                                          "--loop-window-max-xy",
                                          "0",
                                          "--free-margin",
+                                         "0",
+                                         "--search-point-spacing",
                                          "0"}));
 }
 

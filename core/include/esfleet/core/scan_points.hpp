@@ -22,4 +22,10 @@ struct ScanPoints {
 /// that remain are dropped here too.
 ScanPoints prepare_scan(const LaserScan& scan, float min_range = 0.0f, float max_range = 0.0f);
 
+/// The end points in beam order, each kept only if it lies at least `min_spacing` metres from
+/// the last one kept (the first is always kept); the no-return directions are copied as they
+/// are. A point filter in scan order: where beams hit a near surface closer together than a
+/// cell or two, most of them sample the same cells. min_spacing <= 0 keeps every point.
+ScanPoints thin_scan(const ScanPoints& points, double min_spacing);
+
 }  // namespace esfleet

@@ -55,6 +55,10 @@ struct TrackingConfig {
   /// (turns that speed up, stop or reverse).
   bool turn_hypotheses = true;
   Interpolation interpolation = Interpolation::kAll;
+  /// The ES scores only end points at least this far (metres) from the previous one it kept,
+  /// in beam order (thin_scan); the polish and the reported fitness use every end point.
+  /// 0 = every end point (the paper).
+  double search_point_spacing = 0.1;
   /// Polish the ES result with a deterministic pattern search (refine_pose_with).
   bool refine = true;
   /// Motion prior (0 = off): the search maximises fitness * max_h exp(-m_h^2 / 2), m_h the
