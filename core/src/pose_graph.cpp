@@ -146,4 +146,17 @@ PoseGraphResult PoseGraph::optimize(int max_iterations) {
   return result;
 }
 
+PoseGraph PoseGraph::prefix(std::size_t nodes, std::size_t edges) const {
+  if (nodes > nodes_.size() || edges > edges_.size()) {
+    throw std::out_of_range("pose graph prefix of " + std::to_string(nodes) + " nodes, " +
+                            std::to_string(edges) + " edges: the graph has " +
+                            std::to_string(nodes_.size()) + ", " + std::to_string(edges_.size()));
+  }
+  PoseGraph g;
+  g.nodes_.assign(nodes_.begin(), nodes_.begin() + static_cast<std::ptrdiff_t>(nodes));
+  g.edges_.reserve(edges);
+  for (std::size_t i = 0; i < edges; ++i) g.add_edge(edges_[i]);
+  return g;
+}
+
 }  // namespace esfleet

@@ -118,7 +118,8 @@ bool Slam::settle_one() {
   const std::optional<LoopMatch> match = spec.search.match.get();
   if (!match) return false;
   // Judged on the graph as it was at the key scan, as on the mapping thread.
-  if (!accept_loop(*match, spec.search.key, spec.graph)) {
+  PoseGraph graph = graph_.prefix(spec.graph_nodes, spec.graph_edges);
+  if (!accept_loop(*match, spec.search.key, graph)) {
     ++loop_rejected_;
     return false;
   }
@@ -142,7 +143,7 @@ bool Slam::settle_one() {
   last_odometry_ = spec.last_odometry;
   last_inserted_ = spec.last_inserted;
   path_length_ = spec.path_length;
-  graph_ = std::move(spec.graph);
+  graph_ = std::move(graph);
   ++loop_closures_;
   last_loop_ = LoopEvent{k, match->anchor, match->pose.relative_to(spec.search.estimate),
                          match->value.agreement(), match->ambiguity};
@@ -304,7 +305,8 @@ bool Slam::add_key_scan(const ScanPoints& points, const Pose2& pose, double stam
                      last_odometry_,
                      last_inserted_,
                      path_length_,
-                     graph_,
+                     graph_.node_count(),
+                     graph_.edges().size(),
                      {}};
     pending_loop_.reset();
     speculations_.push_back(std::move(spec));

@@ -110,6 +110,27 @@ TEST(PoseGraph, EdgeChi2AndCostAgree) {
   EXPECT_GT(g.cost(), 0.0);
 }
 
+TEST(PoseGraph, APrefixIsTheGraphAsItWasBeforeItGrew) {
+  PoseGraph g;
+  g.add_node({});
+  g.add_node({1.0, 0.0, 0.0});
+  g.add_edge(edge(0, 1, {1.0, 0.0, 0.0}));
+  const PoseGraph before = g;
+  g.add_node({2.0, 0.1, 0.05});
+  g.add_edge(edge(1, 2, {1.0, 0.0, 0.0}));
+  g.add_edge(edge(0, 2, {2.0, 0.0, 0.0}));
+  const PoseGraph p = g.prefix(2, 1);
+  EXPECT_EQ(p.nodes(), before.nodes());
+  ASSERT_EQ(p.edges().size(), 1u);
+  EXPECT_EQ(p.edges()[0].to, 1u);
+  EXPECT_EQ(p.edges()[0].measurement, before.edges()[0].measurement);
+  EXPECT_EQ(p.cost(), before.cost());
+  EXPECT_EQ(g.prefix(3, 3).cost(), g.cost());
+  EXPECT_THROW((void)g.prefix(4, 3), std::out_of_range);  // more than it has
+  EXPECT_THROW((void)g.prefix(3, 4), std::out_of_range);
+  EXPECT_THROW((void)g.prefix(2, 2), std::out_of_range);  // edge 1 -> 2 without node 2
+}
+
 TEST(PoseGraph, EdgeToAMissingNodeIsRefused) {
   PoseGraph g;
   g.add_node({});

@@ -40,6 +40,10 @@ class PoseGraph {
   const std::vector<PoseGraphEdge>& edges() const { return edges_; }
   void pop_edge() { edges_.pop_back(); }
   void set_nodes(std::vector<Pose2> nodes) { nodes_ = std::move(nodes); }
+  /// A graph of the first `nodes` nodes and `edges` edges of this one (an earlier state of a
+  /// graph that only grew since). Throws std::out_of_range if it has fewer, or if a kept edge
+  /// names a node left out.
+  PoseGraph prefix(std::size_t nodes, std::size_t edges) const;
 
   /// Gauss-Newton until the update is below 1e-6 or `max_iterations`.
   PoseGraphResult optimize(int max_iterations = 10);

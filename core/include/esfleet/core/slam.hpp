@@ -261,7 +261,11 @@ class Slam {
     std::optional<Pose2> last_odometry;
     std::optional<Pose2> last_inserted;
     double path_length = 0.0;
-    PoseGraph graph;
+    /// The graph at the key scan is the first this many nodes and edges of graph_: while
+    /// searches are speculative the graph only grows at its end (a closure, a contribution and
+    /// the final pass come after settling), so no copy is kept.
+    std::size_t graph_nodes = 0;
+    std::size_t graph_edges = 0;
     std::vector<LaserScan> scans;
   };
   /// Oldest first; their searches run one after another on worker threads and are applied
