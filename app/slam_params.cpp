@@ -134,6 +134,9 @@ void add_slam_params(ParamTable& t, SlamConfig* s, CarmenReaderOptions* r) {
   t.add_double("recovery_weak_agreement", &s->recovery.weak_agreement,
                "a match is weak below this share of end points on occupied cells (of those on "
                "known cells)");
+  t.add_double("recovery_lost_view_known", &s->recovery.lost_view_known,
+               "a tracked pose with fewer than this share of its end points on observed cells "
+               "is weak too (a missed turn looks into unknown space; 0 = never)");
   t.add_double("recovery_min_gain", &s->recovery.min_gain,
                "a weak tracked pose gives way to the recovered one when its consistency with "
                "the map is higher by this plus recovery_gain_per_window times the jump relative to "

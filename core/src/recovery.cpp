@@ -16,6 +16,7 @@ void RecoveryConfig::validate() const {
   auto in01 = [](double v) { return v >= 0.0 && v <= 1.0; };
   check(in01(weak_agreement), "weak_agreement must be in [0, 1]");
   check(in01(min_known), "min_known must be in [0, 1]");
+  check(in01(lost_view_known), "lost_view_known must be in [0, 1]");
   check(in01(min_gain) && in01(min_gain_fair), "min_gain and min_gain_fair must be in [0, 1]");
   check(gain_per_window >= 0.0 && gain_per_window_fair >= 0.0,
         "gain_per_window and gain_per_window_fair must be >= 0");
@@ -39,7 +40,9 @@ void RecoveryConfig::validate() const {
 }
 
 bool weak_match(const RecoveryConfig& config, const FitnessValue& v) {
-  return v.known_share() >= config.min_known && v.agreement() < config.weak_agreement;
+  if (v.n_points == 0) return false;
+  return (v.known_share() >= config.min_known && v.agreement() < config.weak_agreement) ||
+         v.known_share() < config.lost_view_known;
 }
 
 namespace {

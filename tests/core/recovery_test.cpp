@@ -86,9 +86,16 @@ TEST(Recovery, WeakMatchNeedsKnownEndPoints) {
   EXPECT_TRUE(weak_match(c, v));
   v.n_hit = 75;  // agreement 0.94
   EXPECT_FALSE(weak_match(c, v));
-  v.n_known = 10;  // few known end points: nothing to judge by
-  v.n_hit = 2;
+  v.n_known = 25;  // few known end points: nothing to judge the agreement by
+  v.n_hit = 5;
   EXPECT_FALSE(weak_match(c, v));
+  v.n_known = 10;  // almost none: a view the prediction turned away from the map
+  v.n_hit = 10;
+  EXPECT_TRUE(weak_match(c, v));
+  c.lost_view_known = 0.0;  // ... unless switched off
+  EXPECT_FALSE(weak_match(c, v));
+  c.lost_view_known = 0.2;
+  EXPECT_FALSE(weak_match(c, FitnessValue{}));  // no end points at all: nothing to search with
 }
 
 TEST(Recovery, ValidateNamesTheField) {
@@ -100,6 +107,9 @@ TEST(Recovery, ValidateNamesTheField) {
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("slam.recovery_window_theta"), std::string::npos);
   }
+  RecoveryConfig lost;
+  lost.lost_view_known = 1.5;
+  EXPECT_THROW(lost.validate(), std::invalid_argument);
   EXPECT_FALSE(SlamConfig::paper().recovery.enabled);
 }
 

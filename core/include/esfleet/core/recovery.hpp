@@ -36,6 +36,11 @@ struct RecoveryConfig {
   /// cells, fewer than `weak_agreement` of those fall on cells with hits.
   double weak_agreement = 0.7;
   double min_known = 0.3;
+  /// A tracked pose is also weak when fewer than this share of its end points fall on observed
+  /// cells: a turn the prediction missed leaves the scan looking into unknown space (fr079 every
+  /// 8th scan: a 35 deg turn tracked as -5 deg put 11 % of the end points on known cells, the
+  /// true pose 96 %). 0 = never.
+  double lost_view_known = 0.2;
   /// The search also runs, whatever the match, when the motion since the last scan is
   /// predicted to be at least this large (key-scan logs, dropped scans): a local search can
   /// settle on a wrong pose that agrees well with the little the map knows ahead. 0 = never.
