@@ -6,9 +6,10 @@
 # from scan 1000, where the robot heads into ground the leader never mapped, a follower needs
 # some 430 scans to localise globally) and goes on past the leader's last scan, turning at
 # scan ~1050 into a side corridor the leader only saw from the main one: its contributions
-# extend the map there. With the free-space margin (docs/slam.md item 8) it tracks through at 6x
-# for leader seeds 1-4 and 7; without it it lost its pose at that turn for seed 4 (3 of 3 runs)
-# and, with --loop-final-icp-neighbours 3, for 3 of those 5 seeds (why the ICP is off). At 2x,
+# extend the map there (without --contribute it loses its pose at that turn). With the default
+# SLAM it tracks through at 6x for leader seeds 1-4 and 7; it lost its pose there for seed 4
+# without the free-space margin (docs/slam.md item 8), and with --loop-final-icp-neighbours 3 for
+# seeds 1-4 (why the ICP is off; docs/slam.md item 6). At 2x,
 # from scan 850 to 1499, the map grew from 150 to 209 tiles (605 accepted; before the margin).
 #   contribute (MODE ok): the leader accepts more than 50 contributions and refuses few, its
 #     final map has more tiles than the map of its own scans (an --offline run), and the
