@@ -19,6 +19,8 @@
 
 #include <unistd.h>
 
+#include "scratch_paths.hpp"
+
 namespace esfleet {
 namespace {
 
@@ -31,8 +33,10 @@ std::string fixture(const std::string& name) {
 // A path in the test temp dir, unique per test so tests can run in parallel.
 std::string temp_path(const std::string& name) {
   const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  return ::testing::TempDir() + "carmen_reader_test_" + info->name() + "_" +
-         std::to_string(::getpid()) + "_" + name;
+  return test::scratch_paths()
+      .add(::testing::TempDir() + "carmen_reader_test_" + info->name() + "_" +
+           std::to_string(::getpid()) + "_" + name)
+      .string();
 }
 
 std::string read_bytes(const std::string& path) {

@@ -16,6 +16,7 @@
 #include <unistd.h>
 
 #include "esfleet/core/tile_codec.hpp"
+#include "scratch_paths.hpp"
 #include "synthetic_world.hpp"
 
 namespace esfleet::leader {
@@ -30,6 +31,7 @@ fs::path fresh_dir(const std::string& name) {
   const fs::path d = fs::path(::testing::TempDir()) /
                      ("esfleet-checkpoint-" + name + "-" + std::to_string(::getpid()));
   fs::remove_all(d);
+  test::scratch_paths().add(d);
   fs::create_directories(d);
   return d;
 }

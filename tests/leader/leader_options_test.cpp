@@ -26,6 +26,7 @@
 #include "esfleet/core/tile_codec.hpp"
 #include "leader_app.hpp"
 #include "options_test_harness.hpp"
+#include "scratch_paths.hpp"
 #include "served_map.hpp"
 #include "synthetic_world.hpp"
 
@@ -114,6 +115,7 @@ fs::path fresh_dir(const std::string& name) {
   const fs::path d = fs::path(::testing::TempDir()) /
                      ("esfleet-map-server-" + name + "-" + std::to_string(::getpid()));
   fs::remove_all(d);
+  test::scratch_paths().add(d);
   fs::create_directories(d);
   return d;
 }
