@@ -69,6 +69,12 @@ r = {
     "late_joiner_process_wall_s": late_wall,
     "late_joiner_bytes": b["bytes_received"],
     "maps_identical": True,
+    # Publishes the mapping thread handed over, and the changed tiles it handed over that a
+    # newer copy replaced before the publisher thread sent them: a leader that maps faster than
+    # it can send sends fewer, larger deltas, and the bytes then depend on timing.
+    "publishes": d["publishes"],
+    "tiles_handed_over": d["publisher"]["tiles_handed_over"],
+    "tiles_coalesced": d["publisher"]["coalesced"],
 }
 print(f"{log}: {r['scans']} scans, {r['tiles']} tiles")
 print(f"  sent {r['bytes_total']/1e6:.2f} MB ({r['bytes_per_log_s']/1e3:.1f} kB per log second); "
@@ -76,6 +82,8 @@ print(f"  sent {r['bytes_total']/1e6:.2f} MB ({r['bytes_per_log_s']/1e3:.1f} kB 
       f"({r['full_map_over_tiles']:.1f}x more)")
 print(f"  {r['tiles_published']} whole tiles ({r['tile_bytes']/1e6:.2f} MB), "
       f"{r['deltas_published']} tile deltas ({r['delta_bytes']/1e6:.2f} MB)")
+print(f"  {r['publishes']} publishes handed over {r['tiles_handed_over']} changed tiles, "
+      f"{r['tiles_coalesced']} of them replaced by a newer copy before being sent")
 print(f"  tile latency leader publish -> follower applied: median {r['tile_latency_ms_median']:.2f} ms, "
       f"p99 {r['tile_latency_ms_p99']:.2f} ms")
 print(f"  late joiner: full map after {r['late_joiner_time_to_complete_s']:.2f} s "
