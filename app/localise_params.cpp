@@ -82,6 +82,10 @@ void add_localise_params(ParamTable& t, LocaliserConfig* c) {
   t.add_double("lost_known", &c->lost_known,
                "tracking: ... or whose share of end points on known cells is below this");
   t.add_int("lost_scans", &c->lost_scans, "consecutive bad scans that mean lost (relocalise)");
+  t.add_double("localise_motion_hold", &c->motion_hold,
+               "tracking: move the pose along the direction the map constrains least onto the "
+               "motion hypothesis if the fitness there is within this share of the found one "
+               "(0 = off)");
 }
 
 PoseHint parse_hint(const std::string& text) {

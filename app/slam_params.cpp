@@ -61,6 +61,13 @@ void add_slam_params(ParamTable& t, SlamConfig* s, CarmenReaderOptions* r) {
                "motion prior width, degrees (0 = no prior)");
   t.add_switch("prior_on_stop", &s->tracking.prior_on_stop,
                "laser only: the prior also favours the previous pose (a stop)");
+  t.add_double("motion_hold", &s->tracking.motion_hold,
+               "after the search, move the pose along the direction the map constrains least "
+               "onto the motion hypothesis if the fitness there is within this share of the "
+               "found one (0 = off; the follower's is localise_motion_hold)");
+  t.add_double("motion_hold_ratio", &s->tracking.motion_hold_ratio,
+               "... only where the fitness's least curvature is at most this share of its "
+               "greatest (a corridor; 1 = everywhere)");
   t.add_double("insert_min_travel", &s->insert_min_travel,
                "insert a scan once the robot moved this far since the last one, metres (0 and "
                "insert_min_turn 0 = every scan)");

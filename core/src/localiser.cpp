@@ -51,6 +51,7 @@ void LocaliserConfig::validate() const {
   check(hypothesis_iterations >= 0, "localise.hypothesis_iterations must be >= 0");
   check(prune_ratio >= 0.0 && prune_ratio < 1.0, "localise.prune_ratio must be in [0, 1)");
   check(lost_scans >= 1, "localise.lost_scans must be >= 1");
+  check(motion_hold >= 0.0 && motion_hold < 1.0, "localise.motion_hold must be in [0, 1)");
   check(hint_scans >= 1, "localise.hint_scans must be >= 1");
   if (hint) {
     check(hint->radius >= 0.0 && std::isfinite(hint->radius), "hint radius must be >= 0");
@@ -87,6 +88,7 @@ Localiser::Localiser(LocaliserConfig config)
       }()),
       search_([this] {
         config_.validate();  // all of it first, so errors come in validate()'s order
+        config_.tracking.motion_hold = config_.motion_hold;
         return GlobalSearch(config_.search, config_.tracking);
       }()),
       rng_(config_.seed) {

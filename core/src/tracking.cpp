@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 
 namespace esfleet {
@@ -70,6 +71,60 @@ EsResult polish(const TrackingConfig& c, const GridMap& map, const ScanPoints& p
   return r;
 }
 
+/// The finite-difference step of the fitness's curvature (below a 0.05 m cell: the bilinear
+/// fitness is smooth at that scale, and a wall's end points stay on the wall's slope).
+constexpr double kHoldStep = 0.03;
+
+/// Where the fitness around a pose curves least in the plane, and how much.
+struct Flattest {
+  double vx = 1.0, vy = 0.0;  ///< unit direction
+  double ratio = 0.0;         ///< least curvature / greatest (0 when it does not curve at all)
+};
+
+Flattest flattest_direction(const FitnessEvaluator& eval, const Pose2& p) {
+  auto f = [&](double dx, double dy) {
+    return static_cast<double>(eval.fitness({p.x + dx, p.y + dy, p.theta}));
+  };
+  const double h = kHoldStep, f0 = f(0, 0);
+  // N = -Hessian = [[a, b], [b, d]]; its eigenvalues and the smaller one's eigenvector.
+  const double a = -(f(h, 0) + f(-h, 0) - 2 * f0) / (h * h);
+  const double d = -(f(0, h) + f(0, -h) - 2 * f0) / (h * h);
+  const double b = -(f(h, h) - f(h, -h) - f(-h, h) + f(-h, -h)) / (4 * h * h);
+  const double mean = (a + d) / 2, spread = std::hypot((a - d) / 2, b);
+  const double lmin = mean - spread, lmax = mean + spread;
+  Flattest out;
+  out.ratio = lmax > 0.0 ? std::max(lmin, 0.0) / lmax : 0.0;
+  double vx = lmin - d, vy = b;  // (N - lmin I) v = 0
+  if (std::hypot(vx, vy) < 1e-12) {
+    vx = a <= d ? 1.0 : 0.0;
+    vy = a <= d ? 0.0 : 1.0;
+  }
+  const double n = std::hypot(vx, vy);
+  out.vx = vx / n;
+  out.vy = vy / n;
+  return out;
+}
+
+/// TrackingConfig::motion_hold: `found` moved along the flattest direction onto the nearest
+/// motion hypothesis, or nothing when the map constrains that direction too (ratio above
+/// motion_hold_ratio) or the fitness there drops more than allowed.
+std::optional<Pose2> hold_along_motion(const TrackingConfig& c, const FitnessEvaluator& eval,
+                                       const Pose2& found, const std::vector<Pose2>& hypotheses) {
+  if (!(c.motion_hold > 0.0) || hypotheses.empty()) return std::nullopt;
+  const float f0 = eval.fitness(found);
+  if (!(f0 > 0.0f)) return std::nullopt;
+  const Flattest flat = flattest_direction(eval, found);
+  if (flat.ratio > c.motion_hold_ratio) return std::nullopt;
+  const auto nearest =
+      std::min_element(hypotheses.begin(), hypotheses.end(), [&](const Pose2& p, const Pose2& q) {
+        return std::hypot(p.x - found.x, p.y - found.y) < std::hypot(q.x - found.x, q.y - found.y);
+      });
+  const double s = flat.vx * (nearest->x - found.x) + flat.vy * (nearest->y - found.y);
+  const Pose2 held{found.x + s * flat.vx, found.y + s * flat.vy, found.theta};
+  if (eval.fitness(held) < static_cast<float>(1.0 - c.motion_hold) * f0) return std::nullopt;
+  return held;
+}
+
 }  // namespace
 
 void TrackingConfig::validate() const {
@@ -86,6 +141,9 @@ void TrackingConfig::validate() const {
         "slam.search_point_spacing must be >= 0 (0 = every end point)");
   check(prior_sigma_xy >= 0.0 && prior_sigma_theta_deg >= 0.0,
         "slam.prior_sigma_xy and prior_sigma_theta must be >= 0 (0 = no prior)");
+  check(motion_hold >= 0.0 && motion_hold < 1.0, "slam.motion_hold must be in [0, 1)");
+  check(motion_hold_ratio >= 0.0 && motion_hold_ratio <= 1.0,
+        "slam.motion_hold_ratio must be in [0, 1]");
 }
 
 FitnessOptions slam_fitness_options(const TrackingConfig& config, bool interpolate) {
@@ -172,6 +230,14 @@ TrackResult track_scan(const TrackingConfig& config, const EvolutionStrategy& es
   out.result = search(config, es, rng, map, points, out.predicted, hypotheses, prior_hypotheses);
   if (config.refine) {
     out.result = polish(config, map, points, out.result.pose, prior_hypotheses);
+  }
+  if (config.motion_hold > 0.0) {
+    const FitnessEvaluator fine(
+        map, points, slam_fitness_options(config, config.interpolation != Interpolation::kNone));
+    if (const auto held = hold_along_motion(config, fine, out.result.pose, prior_hypotheses)) {
+      out.result.pose = *held;
+      out.result.value = fine.evaluate(*held);
+    }
   }
   return out;
 }

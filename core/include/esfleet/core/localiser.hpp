@@ -101,6 +101,11 @@ struct LocaliserConfig {
   double lost_agreement = 0.6;  ///< a scan matching worse than this (or lost_known) is bad
   double lost_known = 0.3;
   int lost_scans = 5;  ///< consecutive bad scans to declare the robot lost
+  /// The tracking's hold along the motion (TrackingConfig::motion_hold), which the localiser
+  /// sets in its copy of `tracking` (the SLAM's stays off): a follower's map is fixed while it
+  /// tracks, and along a corridor a few centimetres too far per scan carry on through the
+  /// constant-velocity prediction until the next turn finds the pose wrong.
+  double motion_hold = 0.02;
 
   std::uint64_t seed = 1;
   /// Throws std::invalid_argument naming the field.

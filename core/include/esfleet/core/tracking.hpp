@@ -69,6 +69,15 @@ struct TrackingConfig {
   /// Laser only: the prior also favours the previous pose (a stop). Off: the previous pose is
   /// only in the initial population while another hypothesis says the robot moves.
   bool prior_on_stop = false;
+  /// Hold along the motion (0 = off): after the search, where the map constrains one direction
+  /// of the position much less than the other (the fitness's least curvature there at most
+  /// motion_hold_ratio times its greatest: a corridor's axis), the pose moves along that
+  /// direction onto the motion hypothesis nearest to it, if the fitness there is at least
+  /// (1 - motion_hold) times the one found. Where the scan cannot tell how far the robot went,
+  /// the motion says. The localiser's default (LocaliserConfig::motion_hold); the SLAM's is
+  /// off (docs/localisation.md, Method).
+  double motion_hold = 0.0;
+  double motion_hold_ratio = 0.2;  ///< in [0, 1]; 1 = wherever the fitness is within tolerance
 
   /// Throws std::invalid_argument naming the field (as "slam.<field>": the SLAM flags set it).
   void validate() const;
