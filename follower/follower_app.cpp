@@ -25,6 +25,9 @@ extern "C" void on_save_signal(int) { g_save.store(true); }
 
 /// Nothing from any leader after this long: say what is likely wrong, once.
 constexpr double kNoMapWarnS = 10.0;
+/// How long a localising follower waits for a final map to arrive whole (a late joiner of a
+/// busy host took some 30 s for 224 tiles) before it localises in the part it holds.
+constexpr double kMapArrivalGraceS = 60.0;
 
 GridMapConfig local_map_config(const LocaliserConfig& c) {
   GridMapConfig local;
@@ -207,7 +210,13 @@ bool FollowerApp::next_scan() {
   }
   const bool was_tracking = localisation_.state() == LocaliserState::kTracking;
   if (auto scan = source_->poll(stop_)) {
-    const LocaliserStep step = localisation_.process(map_->replica(), *scan);
+    LocaliserStep step;
+    if (!was_tracking && hold_for_map()) {
+      step.state = LocaliserState::kWaitingForMap;  // a pose in part of the map could be wrong
+      ++scans_held_;
+    } else {
+      step = localisation_.process(map_->replica(), *scan);
+    }
     publish_ros_pose(*scan, step);
     if (contributor_) {
       contributor_->after_scan(*scan, step, was_tracking, map_->replica());
@@ -231,6 +240,34 @@ bool FollowerApp::next_scan() {
     return false;
   }
   return true;
+}
+
+bool FollowerApp::hold_for_map() {
+  const mapshare::MapReplica& replica = map_->replica();
+  const std::size_t here = replica.has_map() ? replica.map().tile_count() : 0;
+  if (!replica.arriving()) {
+    if (holding_since_s_ >= 0) {
+      spdlog::info("the final map is here ({} tiles): localising ({} scans held for it)", here,
+                   scans_held_);
+      holding_since_s_ = -1.0;
+    }
+    return false;
+  }
+  const double now = seconds_since_start();
+  if (holding_since_s_ < 0) {
+    holding_since_s_ = now;
+    spdlog::info(
+        "the leader's map is final but {} of its {} tiles are here: localising once it is "
+        "whole (at most {:.0f} s)",
+        here, replica.meta()->tile_count, kMapArrivalGraceS);
+  }
+  if (now - holding_since_s_ <= kMapArrivalGraceS) return true;
+  if (!warned_map_grace_) {
+    warned_map_grace_ = true;
+    spdlog::warn("{} of the final map's {} tiles after {:.0f} s: localising in what is here", here,
+                 replica.meta()->tile_count, now - holding_since_s_);
+  }
+  return false;
 }
 
 void FollowerApp::settle_contributions() {
@@ -351,6 +388,7 @@ nlohmann::json FollowerApp::stats_json(const char* why) const {
   };
   if (source_) {
     nlohmann::json loc = localisation_.json(o_.robot_id);
+    loc["scans_held_for_map"] = scans_held_;
     if (topic_ != nullptr) {
       const app::Summary lag = app::summarize(tracking_lag_ms_);
       loc["scans_dropped"] = topic_->stats().dropped;

@@ -57,6 +57,9 @@ class FollowerApp {
   void report() const;
   /// Saves the map files, stats.json and the trajectory; false on any failure.
   bool save(const char* why) const;
+  /// Not tracking and the leader's final map still arriving: the scan waits for it (at most
+  /// kMapArrivalGraceS, then it localises in what is here).
+  bool hold_for_map();
   nlohmann::json stats_json(const char* why) const;
 
   FollowerOptions o_;
@@ -75,6 +78,11 @@ class FollowerApp {
   LeaderWatch leader_;
   double first_tile_s_ = -1.0;
   double complete_s_ = -1.0;
+  /// Localisation held while the final map arrives (MapReplica::arriving): since when, and
+  /// the scans held.
+  double holding_since_s_ = -1.0;
+  std::uint64_t scans_held_ = 0;
+  bool warned_map_grace_ = false;
   bool warned_no_map_ = false;
   bool timed_out_ = false;
   bool scans_ended_ = false;

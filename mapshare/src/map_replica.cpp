@@ -179,6 +179,11 @@ bool MapReplica::complete() const {
          meta_->tile_count == map_->tile_count() && meta_->map_version == map_version(*map_);
 }
 
+bool MapReplica::arriving() const {
+  return meta_ && meta_->complete && meta_->epoch == epoch_ &&
+         (!map_ || map_->tile_count() < meta_->tile_count);
+}
+
 void ReceiveStats::count_tile(bool delta, Applied outcome) {
   if (!delta) {
     ++tiles_received;

@@ -67,6 +67,27 @@ TEST(MapReplica, CompleteOnlyWithEveryTileAtTheNewestVersion) {
   EXPECT_EQ(map_digest(replica.map()), map_digest(leader));
 }
 
+TEST(MapReplica, ArrivingWhileAFinalMapLacksTilesItAnnounced) {
+  GridMap leader = test::random_map(4);
+  const MapIdentity id;
+  const auto keys = leader.tile_keys();
+  ASSERT_GT(keys.size(), 2u);
+  MapReplica replica;
+  EXPECT_FALSE(replica.arriving());  // nothing announced
+  // A live map (not final) is never "arriving": it always lags the leader a little.
+  ASSERT_EQ(replica.apply(meta_message(leader, id, false, 10, "{}", 1)), Applied::kApplied);
+  EXPECT_FALSE(replica.arriving());
+  // Final: arriving until every announced tile is here.
+  ASSERT_EQ(replica.apply(meta_message(leader, id, true, 11, "{}", 2)), Applied::kApplied);
+  EXPECT_TRUE(replica.arriving());  // no tile yet
+  for (std::size_t i = 0; i + 1 < keys.size(); ++i) {
+    replica.apply(whole_tile_message(leader, keys[i], id, TileEncoding::kVarintZlib, 1));
+    EXPECT_TRUE(replica.arriving()) << i + 1 << " of " << keys.size() << " tiles";
+  }
+  replica.apply(whole_tile_message(leader, keys.back(), id, TileEncoding::kVarintZlib, 1));
+  EXPECT_FALSE(replica.arriving());
+}
+
 TEST(MapReplica, OlderOrEqualVersionsAreStale) {
   GridMap leader = test::random_map(5);
   const TileKey k = leader.tile_keys().front();

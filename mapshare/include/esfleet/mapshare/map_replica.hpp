@@ -59,6 +59,9 @@ class MapReplica {
   const std::optional<MetaMessage>& meta() const { return meta_; }
   /// The leader said its map is final and the replica holds all of it, at the same versions.
   bool complete() const;
+  /// The leader said its map is final and the replica holds fewer tiles than it announced
+  /// (a late joiner while the map arrives): a pose found now would be found in part of it.
+  bool arriving() const;
 
  private:
   Applied apply_whole(const TileMessage& t, std::string* error);
