@@ -57,10 +57,9 @@ EsResult search(const TrackingConfig& c, const EvolutionStrategy& es, Rng& rng, 
   return r;
 }
 
-EsResult polish(const TrackingConfig& c, const GridMap& map, const ScanPoints& points,
-                const Pose2& start, const std::vector<Pose2>& hypotheses) {
-  const FitnessEvaluator eval(map, points,
-                              slam_fitness_options(c, c.interpolation != Interpolation::kNone));
+/// `eval`: every end point, interpolated unless Interpolation::kNone.
+EsResult polish(const TrackingConfig& c, const FitnessEvaluator& eval, const Pose2& start,
+                const std::vector<Pose2>& hypotheses) {
   const bool with_prior = use_prior(c);
   EsResult r = refine_pose_with(
       [&](const Pose2& p) {
@@ -81,11 +80,12 @@ struct Flattest {
   double ratio = 0.0;         ///< least curvature / greatest (0 when it does not curve at all)
 };
 
-Flattest flattest_direction(const FitnessEvaluator& eval, const Pose2& p) {
+/// `f0`: the fitness at `p`.
+Flattest flattest_direction(const FitnessEvaluator& eval, const Pose2& p, double f0) {
   auto f = [&](double dx, double dy) {
     return static_cast<double>(eval.fitness({p.x + dx, p.y + dy, p.theta}));
   };
-  const double h = kHoldStep, f0 = f(0, 0);
+  const double h = kHoldStep;
   // N = -Hessian = [[a, b], [b, d]]; its eigenvalues and the smaller one's eigenvector.
   const double a = -(f(h, 0) + f(-h, 0) - 2 * f0) / (h * h);
   const double d = -(f(0, h) + f(0, -h) - 2 * f0) / (h * h);
@@ -113,7 +113,7 @@ std::optional<Pose2> hold_along_motion(const TrackingConfig& c, const FitnessEva
   if (!(c.motion_hold > 0.0) || hypotheses.empty()) return std::nullopt;
   const float f0 = eval.fitness(found);
   if (!(f0 > 0.0f)) return std::nullopt;
-  const Flattest flat = flattest_direction(eval, found);
+  const Flattest flat = flattest_direction(eval, found, f0);
   if (flat.ratio > c.motion_hold_ratio) return std::nullopt;
   const auto nearest =
       std::min_element(hypotheses.begin(), hypotheses.end(), [&](const Pose2& p, const Pose2& q) {
@@ -228,12 +228,12 @@ TrackResult track_scan(const TrackingConfig& config, const EvolutionStrategy& es
   }
   if (prior_hypotheses.empty()) prior_hypotheses = hypotheses;
   out.result = search(config, es, rng, map, points, out.predicted, hypotheses, prior_hypotheses);
-  if (config.refine) {
-    out.result = polish(config, map, points, out.result.pose, prior_hypotheses);
-  }
+  if (!config.refine && !(config.motion_hold > 0.0)) return out;
+  // The polish and the hold score every end point, interpolated unless switched off.
+  const FitnessEvaluator fine(
+      map, points, slam_fitness_options(config, config.interpolation != Interpolation::kNone));
+  if (config.refine) out.result = polish(config, fine, out.result.pose, prior_hypotheses);
   if (config.motion_hold > 0.0) {
-    const FitnessEvaluator fine(
-        map, points, slam_fitness_options(config, config.interpolation != Interpolation::kNone));
     if (const auto held = hold_along_motion(config, fine, out.result.pose, prior_hypotheses)) {
       out.result.pose = *held;
       out.result.value = fine.evaluate(*held);
