@@ -127,6 +127,9 @@ void add_slam_params(ParamTable& t, SlamConfig* s, CarmenReaderOptions* r) {
             "ICP); the graph takes the alignments that hold as edges (0 = off)");
   t.add_double("loop_final_icp_max_distance", &s->loop.final_icp_max_distance,
                "final pass: scans farther apart than this are not aligned by ICP, metres");
+  t.add_double("loop_final_icp_degenerate_ratio", &s->loop.icp.degenerate_ratio,
+               "final pass ICP: a direction the scans constrain less than this share of the "
+               "best-constrained one keeps the tracked motion (a corridor's axis; 0 = off)");
   t.add_double("loop_max_chi2", &s->loop.max_chi2,
                "graph cost increase above which a loop closure is dropped");
   t.add_double("loop_sigma_xy", &s->loop.sigma_xy,

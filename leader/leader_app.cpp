@@ -345,9 +345,10 @@ int LeaderApp::run() {
     if (final_pass_->tried > 0) {
       spdlog::info(
           "final pass: {} key scans matched against their surroundings, {} matches, {} "
-          "kept; {} of {} pairs of successive key scans aligned by ICP; {:.1f} s",
+          "kept; {} of {} pairs of successive key scans aligned by ICP ({} held along a "
+          "corridor); {:.1f} s",
           final_pass_->tried, final_pass_->matched, final_pass_->kept, final_pass_->icp_aligned,
-          final_pass_->icp_tried, final_pass_->ms / 1000.0);
+          final_pass_->icp_tried, final_pass_->icp_held, final_pass_->ms / 1000.0);
     }
   }
   if (checkpoints_) checkpoints_->save(slam_, stats.interrupted ? "interrupted" : "end of input");

@@ -123,6 +123,9 @@ void IcpConfig::validate() const {
   if (!(min_pair_share >= 0.0 && min_pair_share <= 1.0)) {
     throw std::invalid_argument("icp.min_pair_share must be in [0, 1]");
   }
+  if (!(degenerate_ratio >= 0.0 && degenerate_ratio < 1.0)) {
+    throw std::invalid_argument("icp.degenerate_ratio must be in [0, 1)");
+  }
 }
 
 std::optional<IcpResult> align_scans(const ScanPoints& reference, const ScanPoints& moving,
@@ -171,6 +174,23 @@ std::optional<IcpResult> align_scans(const ScanPoints& reference, const ScanPoin
     if (std::hypot(step.x(), step.y()) < 1e-5 && std::abs(step.z()) < 1e-6) break;
   }
   out.iterations = std::min(out.iterations, c.max_iterations);
+  if (c.degenerate_ratio > 0.0) {
+    // How well the pairs alone (no prior) constrain the translation at the result.
+    Eigen::Matrix3d h = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d g = Eigen::Vector3d::Zero();
+    double unused = 0.0;
+    pass(&h, &g, &unused);
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(h.topLeftCorner<2, 2>());
+    const double weakest = eig.eigenvalues()(0), strongest = eig.eigenvalues()(1);
+    if (strongest > 0.0 && weakest < c.degenerate_ratio * strongest) {
+      const Eigen::Vector2d weak = eig.eigenvectors().col(0);
+      const Eigen::Vector2d moved(pose.x - start.x, pose.y - start.y);
+      const Eigen::Vector2d kept = moved - weak * weak.dot(moved);
+      pose.x = start.x + kept.x();
+      pose.y = start.y + kept.y();
+      out.held_along = true;
+    }
+  }
   double sum_sq = 0.0;
   out.pairs = pass(nullptr, nullptr, &sum_sq);
   const double needed = std::max(static_cast<double>(c.min_pairs),

@@ -521,7 +521,7 @@ void Slam::add_icp_edges(std::vector<PoseGraphEdge>& edges, unsigned threads,
   struct Pair {
     std::size_t from, to, edge;  // edge: the chain edge it sharpens, or kNone (a new edge)
     Pose2 start;
-    std::optional<Pose2> aligned;
+    std::optional<IcpResult> aligned;
   };
   std::vector<Pair> pairs;
   for (std::size_t i = 1; i < own.size(); ++i) {
@@ -546,7 +546,7 @@ void Slam::add_icp_edges(std::vector<PoseGraphEdge>& edges, unsigned threads,
       Pair& p = pairs[i];
       const auto r =
           align_scans(*keys_[p.from].points, *keys_[p.to].points, p.start, config_.loop.icp);
-      if (r) p.aligned = r->relative;
+      p.aligned = r;
     }
   };
   run_strided(std::max(threads, 1u), work);
@@ -554,10 +554,11 @@ void Slam::add_icp_edges(std::vector<PoseGraphEdge>& edges, unsigned threads,
   for (const Pair& p : pairs) {
     if (!p.aligned) continue;
     ++out.icp_aligned;
+    out.icp_held += p.aligned->held_along ? 1 : 0;
     if (p.edge != kNone) {
-      edges[p.edge].measurement = *p.aligned;
+      edges[p.edge].measurement = p.aligned->relative;
     } else {
-      edges.push_back(key_edge(p.from, p.to, *p.aligned));
+      edges.push_back(key_edge(p.from, p.to, p.aligned->relative));
     }
   }
 }

@@ -9,6 +9,13 @@
 // on a line); the error is the distance to that line. Gauss-Newton with a Huber kernel, plus a
 // weak prior on the start: along a corridor the lines do not constrain the position and the
 // start (the tracked motion) stays.
+//
+// Where they constrain it only a little (a corridor with a door frame or two), the prior does not
+// hold it: a few end points paired with the wrong short line pull the result along the corridor.
+// So the translation is split by how well the pairs constrain it (the eigenvectors of their
+// 2x2 information at the result): along a direction whose information is below
+// `degenerate_ratio` times the other's, the start is kept (the solution remapping of Zhang,
+// Kaess and Singh, ICRA 2016). Measured in docs/slam.md (item 6).
 
 #include <cstddef>
 #include <optional>
@@ -31,6 +38,9 @@ struct IcpConfig {
   std::size_t min_pairs = 30;
   double max_move_xy = 0.1;         ///< a result farther from the start than this is rejected
   double max_move_theta_deg = 2.0;  ///< ... or turned more
+  /// A translation direction constrained less than this share of the best-constrained one keeps
+  /// the start. 0 = off.
+  double degenerate_ratio = 0.1;
 
   /// Throws std::invalid_argument naming the field.
   void validate() const;
@@ -41,6 +51,7 @@ struct IcpResult {
   std::size_t pairs;  ///< end points paired with a line at the result
   double rms = 0.0;   ///< RMS point-to-line distance of the pairs, metres
   int iterations = 0;
+  bool held_along = false;  ///< one direction was degenerate and kept the start's translation
 };
 
 /// The pose of `moving` in the frame of `reference`, refined from `start` (both scans in their

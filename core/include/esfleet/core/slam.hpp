@@ -125,6 +125,7 @@ struct SlamFinish {
   std::size_t icp_tried =
       0;  ///< pairs of nearby own key scans aligned by ICP (final_icp_neighbours)
   std::size_t icp_aligned = 0;  ///< ... whose alignment held (graph edges)
+  std::size_t icp_held = 0;     ///< ... of which one direction kept the tracked translation
   double ms = 0.0;
 };
 
