@@ -147,15 +147,17 @@ class CheckpointSchedule {
   /// Before a publish of `map`: keeps the journal ahead of it.
   void reserve(const GridMap& map);
 
+  /// Waits until the writer thread is idle: every checkpoint handed to it is written.
+  void wait_idle();
+
   /// stats.json "checkpoint": directory, period, saves, median and max ms, last size, ceiling.
+  /// Counts the checkpoints written so far; one the writer thread still holds is not counted.
   nlohmann::json stats() const;
   const Checkpointer& checkpointer() const { return checkpointer_; }
 
  private:
   /// Hands a checkpoint to the writer thread (after the previous one is written).
   void start(Slam& slam, const char* why);
-  /// Waits until the writer thread is idle.
-  void wait_idle();
   void writer_loop();
 
   std::size_t every_;

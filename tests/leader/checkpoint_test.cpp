@@ -56,6 +56,7 @@ TEST(CheckpointSchedule, AResumedLeaderContinuesExactlyAsAnUninterruptedOne) {
       uninterrupted.process(scan(i));
       schedule.after_scan(uninterrupted);  // saves at scan 20 only
     }
+    schedule.wait_idle();  // the writer thread may still hold it
     EXPECT_EQ(schedule.stats()["written"], 1);
   }
   for (int i = 30; i < 50; ++i) uninterrupted.process(scan(i));
