@@ -1,4 +1,5 @@
-// esfleet-eval: scores a trajectory file against a Kümmerle et al. (2009) .relations file.
+// esfleet-eval: scores a trajectory file against a Kümmerle et al. (2009) .relations file, and
+// against a corrected log's poses (the absolute error: how bent or scaled the whole map is).
 //
 // Exit codes: 0 success; 1 nothing matched (a warning says why that usually happens);
 // 2 usage error, unreadable or malformed input.
@@ -15,8 +16,10 @@
 #include <nlohmann/json.hpp>
 
 #include "app/program.hpp"
+#include "esfleet/core/carmen_reader.hpp"
 #include "esfleet/core/relations.hpp"
 #include "esfleet/core/trajectory_io.hpp"
+#include "generalise_data.hpp"
 
 namespace {
 
@@ -33,12 +36,25 @@ constexpr const char* kDescription =
     "\n"
     "The trajectory file has one \"t x y theta\" line per pose (s, m, m, rad).\n"
     "\n"
-    "Example (Freiburg 079: relation stamps = log stamps + 1211.45 s):\n"
-    "  esfleet-eval --trajectory fr079.traj --relations fr079.relations --time-offset 1211.45";
+    "With --reference, a CARMEN log of the same run whose odometry fields are corrected\n"
+    "poses, it also reports the absolute error: the trajectory is moved onto those poses by\n"
+    "the best rotation and translation, and the position errors left (RMS, mean, max) show\n"
+    "how bent the whole map is, which relations between nearby moments hardly see; the best\n"
+    "scale as well (> 1: the map is smaller than the reference). A key-scan log (e.g.\n"
+    "csail-corrected.log.gz) takes its stamps from the raw log given as --reference-raw,\n"
+    "matched by identical ranges.\n"
+    "\n"
+    "Examples (Freiburg 079: relation stamps = log stamps + 1211.45 s):\n"
+    "  esfleet-eval --trajectory fr079.traj --relations fr079.relations --time-offset 1211.45\n"
+    "  esfleet-eval --trajectory fr079.traj --reference fr079-corrected.log.gz\n"
+    "  esfleet-eval --trajectory csail.traj --relations mit-csail.relations \\\n"
+    "      --reference csail-corrected.log.gz --reference-raw mit-csail.clf.gz";
 
 struct EvalOptions {
   std::string trajectory;            ///< "t x y theta" per line (required)
-  std::string relations;             ///< "t1 t2 x y z roll pitch yaw" per line (required)
+  std::string relations;             ///< "t1 t2 x y z roll pitch yaw" per line
+  std::string reference;             ///< CARMEN log with corrected poses in its odometry fields
+  std::string reference_raw;         ///< the raw log a key-scan --reference was taken from
   esfleet::RelationsOptions metric;  ///< time offset, tolerance, outlier thresholds
   bool json = false;                 ///< also print the result as one JSON line
   double split_gap = 0.0;  ///< > 0: also score relations with t2 - t1 below / at least this apart
@@ -46,6 +62,12 @@ struct EvalOptions {
   /// Throws UsageError naming the flag. Checked here rather than with CLI11 validators, whose
   /// messages print DBL_MAX in full.
   void validate() const {
+    if (relations.empty() && reference.empty()) {
+      throw UsageError("give --relations, --reference or both");
+    }
+    if (!reference_raw.empty() && reference.empty()) {
+      throw UsageError("--reference-raw needs --reference (the key-scan log)");
+    }
     if (!std::isfinite(metric.time_offset)) {
       throw UsageError("--time-offset must be a finite number");
     }
@@ -62,8 +84,13 @@ void add_eval_flags(CLI::App& app, EvalOptions& o) {
   app.add_option("--trajectory", o.trajectory, "trajectory file, \"t x y theta\" per line")
       ->required();
   app.add_option("--relations", o.relations,
-                 "relations file, \"t1 t2 x y z roll pitch yaw\" per line")
-      ->required();
+                 "relations file, \"t1 t2 x y z roll pitch yaw\" per line");
+  app.add_option("--reference", o.reference,
+                 "CARMEN log of the same run with corrected poses in its odometry fields: also "
+                 "score the absolute error");
+  app.add_option("--reference-raw", o.reference_raw,
+                 "the raw log a key-scan --reference was taken from: its scans' stamps, matched "
+                 "by identical ranges");
   app.add_option("--time-offset", o.metric.time_offset,
                  "seconds added to trajectory stamps to get relation stamps (fr079: 1211.45)")
       ->capture_default_str();
@@ -111,19 +138,31 @@ std::vector<SplitPart> score_split(const std::vector<esfleet::TimedPose>& trajec
           {"revisits", ">=", esfleet::evaluate_relations(trajectory, revisits, metric)}};
 }
 
-/// Prints the scores; 0, or 1 when no relation matched.
-int evaluate(const EvalOptions& o) {
-  std::vector<esfleet::TimedPose> trajectory;
-  esfleet::RelationsResult r;
-  std::vector<SplitPart> split;
-  try {
-    trajectory = esfleet::read_trajectory(o.trajectory);
-    const auto relations = esfleet::read_relations(o.relations);
-    r = esfleet::evaluate_relations(trajectory, relations, o.metric);
-    if (o.split_gap > 0.0) split = score_split(trajectory, relations, o.split_gap, o.metric);
-  } catch (const std::exception& e) {
-    throw UsageError(e.what());  // bad input: "<path>:<line>: ..."
+/// The poses of --reference in the trajectory's time base: a key-scan log takes the stamps of
+/// the --reference-raw scans it was taken from. Throws std::runtime_error naming the file.
+std::vector<esfleet::TimedPose> read_reference(const EvalOptions& o) {
+  const std::vector<esfleet::LaserScan> scans = esfleet::read_carmen_log(o.reference);
+  std::vector<esfleet::LaserScan> raw;
+  std::vector<std::size_t> match;
+  if (!o.reference_raw.empty()) {
+    raw = esfleet::read_carmen_log(o.reference_raw);
+    match = esfleet::bench::match_key_scans(scans, raw, o.reference, o.reference_raw);
   }
+  std::vector<esfleet::TimedPose> reference;
+  reference.reserve(scans.size());
+  for (std::size_t i = 0; i < scans.size(); ++i) {
+    if (!scans[i].odometry) {
+      throw std::runtime_error(o.reference + ": laser scan " + std::to_string(i + 1) +
+                               " has no pose fields (a corrected pose is needed)");
+    }
+    reference.push_back({match.empty() ? scans[i].stamp : raw[match[i]].stamp, *scans[i].odometry});
+  }
+  return reference;
+}
+
+/// Prints the relations scores.
+void print_relations(const EvalOptions& o, const esfleet::RelationsResult& r,
+                     const std::vector<SplitPart>& split) {
   if (r.matched > 0) {
     std::cout << "translation: " << format("%.4f \u00b1 %.4f m", r.trans_mean, r.trans_std) << '\n'
               << "rotation: " << format("%.2f \u00b1 %.2f deg", r.rot_mean_deg, r.rot_std_deg)
@@ -148,42 +187,100 @@ int evaluate(const EvalOptions& o) {
     }
     std::cout << ", matched " << p.matched << " / " << p.total << '\n';
   }
-  if (o.json) {
-    nlohmann::json j = {{"trans_mean", stat(r, r.trans_mean)},
-                        {"trans_std", stat(r, r.trans_std)},
-                        {"rot_mean_deg", stat(r, r.rot_mean_deg)},
-                        {"rot_std_deg", stat(r, r.rot_std_deg)},
-                        {"trans_max", stat(r, r.trans_max)},
-                        {"outliers", r.outliers},
-                        {"matched", r.matched},
-                        {"total", r.total}};
-    for (const auto& part : split) {
-      const auto& p = part.result;
-      j["split"][part.name] = {{"trans_mean", stat(p, p.trans_mean)},
-                               {"rot_mean_deg", stat(p, p.rot_mean_deg)},
-                               {"matched", p.matched},
-                               {"total", p.total}};
+}
+
+nlohmann::json relations_json(const EvalOptions& o, const esfleet::RelationsResult& r,
+                              const std::vector<SplitPart>& split) {
+  nlohmann::json j = {{"trans_mean", stat(r, r.trans_mean)},
+                      {"trans_std", stat(r, r.trans_std)},
+                      {"rot_mean_deg", stat(r, r.rot_mean_deg)},
+                      {"rot_std_deg", stat(r, r.rot_std_deg)},
+                      {"trans_max", stat(r, r.trans_max)},
+                      {"outliers", r.outliers},
+                      {"matched", r.matched},
+                      {"total", r.total}};
+  for (const auto& part : split) {
+    const auto& p = part.result;
+    j["split"][part.name] = {{"trans_mean", stat(p, p.trans_mean)},
+                             {"rot_mean_deg", stat(p, p.rot_mean_deg)},
+                             {"matched", p.matched},
+                             {"total", p.total}};
+  }
+  if (!split.empty()) j["split"]["gap_s"] = o.split_gap;
+  return j;
+}
+
+/// Prints the scores; 0, or 1 when no relation (or fewer than two reference poses) matched.
+int evaluate(const EvalOptions& o) {
+  std::vector<esfleet::TimedPose> trajectory;
+  esfleet::RelationsResult r;
+  std::vector<SplitPart> split;
+  esfleet::AbsoluteErrorResult a;
+  try {
+    trajectory = esfleet::read_trajectory(o.trajectory);
+    if (!o.relations.empty()) {
+      const auto relations = esfleet::read_relations(o.relations);
+      r = esfleet::evaluate_relations(trajectory, relations, o.metric);
+      if (o.split_gap > 0.0) split = score_split(trajectory, relations, o.split_gap, o.metric);
     }
-    if (!split.empty()) j["split"]["gap_s"] = o.split_gap;
+    if (!o.reference.empty()) {
+      a = esfleet::evaluate_absolute(trajectory, read_reference(o), o.metric.tolerance);
+    }
+  } catch (const std::exception& e) {
+    throw UsageError(e.what());  // bad input: "<path>:<line>: ..."
+  }
+  if (!o.relations.empty()) print_relations(o, r, split);
+  const bool absolute = a.matched >= 2;
+  if (!o.reference.empty()) {
+    std::cout << "absolute: ";
+    if (absolute) {
+      std::cout << format("rms %.3f m, mean %.3f m", a.rms, a.mean)
+                << format(", max %.3f m; scale %.4f", a.max, a.scale)
+                << format(" (rms %.3f m with it)", a.rms_scaled, 0.0);
+    } else {
+      std::cout << "n/a";
+    }
+    std::cout << ", matched " << a.matched << " / " << a.total << " reference poses\n";
+  }
+  if (o.json) {
+    nlohmann::json j = o.relations.empty() ? nlohmann::json::object() : relations_json(o, r, split);
+    if (!o.reference.empty()) {
+      auto v = [&](double x) { return absolute ? nlohmann::json(x) : nullptr; };
+      j["absolute"] = {{"rms", v(a.rms)},
+                       {"mean", v(a.mean)},
+                       {"max", v(a.max)},
+                       {"scale", v(a.scale)},
+                       {"rms_scaled", v(a.rms_scaled)},
+                       {"matched", a.matched},
+                       {"total", a.total}};
+    }
     std::cout << j.dump() << '\n';
   }
   std::cout.flush();
-  if (r.matched == 0) {
+  int code = esfleet::app::kExitOk;
+  if (!o.relations.empty() && r.matched == 0) {
     spdlog::warn(
         "no relation matched a trajectory pose within {} s ({} poses, {} relations); check "
         "--time-offset and that both files cover the same run",
         o.metric.tolerance, trajectory.size(), r.total);
-    return esfleet::app::kExitFailure;
+    code = esfleet::app::kExitFailure;
   }
-  return esfleet::app::kExitOk;
+  if (!o.reference.empty() && !absolute) {
+    spdlog::warn(
+        "{} of {} reference poses matched a trajectory pose within {} s (2 needed); check that "
+        "both files cover the same run (a key-scan log needs --reference-raw)",
+        a.matched, a.total, o.metric.tolerance);
+    code = esfleet::app::kExitFailure;
+  }
+  return code;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
   esfleet::app::Program program("esfleet-eval", "eval", kDescription,
-                                "1 also when no relation matched (the JSON statistics are then "
-                                "null)");
+                                "1 also when no relation matched, or fewer than two reference "
+                                "poses (the JSON statistics are then null)");
   EvalOptions o;
   add_eval_flags(program.cli(), o);
   if (auto code = program.parse(argc, argv)) return *code;

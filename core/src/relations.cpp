@@ -195,4 +195,74 @@ DerivedRelationsResult evaluate_derived_relations(const std::vector<Pose2>& refe
   return result;
 }
 
+AbsoluteErrorResult evaluate_absolute(const std::vector<TimedPose>& trajectory,
+                                      const std::vector<TimedPose>& reference, double tolerance) {
+  if (!std::isfinite(tolerance) || tolerance < 0.0) {
+    throw std::invalid_argument("evaluate_absolute: tolerance must be finite and >= 0");
+  }
+  std::vector<TimedPose> sorted = trajectory;
+  for (std::size_t i = 0; i < sorted.size(); ++i) {
+    if (!std::isfinite(sorted[i].stamp)) {
+      throw std::invalid_argument("trajectory pose " + std::to_string(i) +
+                                  " has a non-finite stamp");
+    }
+  }
+  std::stable_sort(sorted.begin(), sorted.end(),
+                   [](const TimedPose& a, const TimedPose& b) { return a.stamp < b.stamp; });
+  // Matched pairs: (reference position, estimated position).
+  std::vector<std::array<double, 4>> pairs;
+  for (std::size_t i = 0; i < reference.size(); ++i) {
+    const TimedPose& r = reference[i];
+    if (!std::isfinite(r.stamp) || !is_finite(r.pose)) {
+      throw std::invalid_argument("reference pose " + std::to_string(i) + " is not finite");
+    }
+    const auto k = nearest(sorted, r.stamp, tolerance);
+    if (k) pairs.push_back({r.pose.x, r.pose.y, sorted[*k].pose.x, sorted[*k].pose.y});
+  }
+  AbsoluteErrorResult result;
+  result.total = reference.size();
+  result.matched = pairs.size();
+  if (pairs.size() < 2) return result;
+  // Centroids, then the rotation (and scale) that best maps the estimate's spread onto the
+  // reference's: Umeyama's closed form, in 2D.
+  const auto n = static_cast<double>(pairs.size());
+  double rx = 0, ry = 0, ex = 0, ey = 0;
+  for (const auto& [ax, ay, bx, by] : pairs) {
+    rx += ax / n;
+    ry += ay / n;
+    ex += bx / n;
+    ey += by / n;
+  }
+  double dot = 0, cross = 0, spread = 0;
+  for (const auto& [ax, ay, bx, by] : pairs) {
+    const double px = ax - rx, py = ay - ry, qx = bx - ex, qy = by - ey;
+    dot += qx * px + qy * py;
+    cross += qx * py - qy * px;
+    spread += qx * qx + qy * qy;
+  }
+  const double angle = std::atan2(cross, dot);
+  result.scale = spread > 0 ? std::hypot(dot, cross) / spread : 1.0;
+  auto errors = [&](double scale) {
+    const double c = scale * std::cos(angle), s = scale * std::sin(angle);
+    std::vector<double> e;
+    e.reserve(pairs.size());
+    for (const auto& [ax, ay, bx, by] : pairs) {
+      const double qx = bx - ex, qy = by - ey;
+      e.push_back(std::hypot(c * qx - s * qy + rx - ax, s * qx + c * qy + ry - ay));
+    }
+    return e;
+  };
+  auto rms = [&](const std::vector<double>& e) {
+    double sq = 0;
+    for (double v : e) sq += v * v;
+    return std::sqrt(sq / n);
+  };
+  const std::vector<double> rigid = errors(1.0);
+  result.rms = rms(rigid);
+  result.mean = mean_and_std(rigid).first;
+  result.max = *std::max_element(rigid.begin(), rigid.end());
+  result.rms_scaled = rms(errors(result.scale));
+  return result;
+}
+
 }  // namespace esfleet

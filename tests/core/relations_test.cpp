@@ -7,6 +7,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <numbers>
 #include <random>
 #include <stdexcept>
@@ -483,6 +484,85 @@ TEST(DerivedRelations, RejectsMismatchedInputsAndAZeroGap) {
   const auto empty = evaluate_derived_relations({}, {}, {1, 5});
   EXPECT_EQ(empty.count, 0u);
   EXPECT_EQ(empty.trans_mean, 0.0);
+}
+
+/// `path` moved as a whole: turned by `angle` about the origin, scaled by `scale`, shifted.
+std::vector<TimedPose> moved(const std::vector<TimedPose>& path, double angle, double scale,
+                             double dx, double dy) {
+  std::vector<TimedPose> out;
+  const double c = std::cos(angle), s = std::sin(angle);
+  for (const TimedPose& p : path) {
+    out.push_back({p.stamp,
+                   {scale * (c * p.pose.x - s * p.pose.y) + dx,
+                    scale * (s * p.pose.x + c * p.pose.y) + dy, p.pose.theta + angle}});
+  }
+  return out;
+}
+
+TEST(EvaluateAbsolute, AnEstimateInAnyFrameHasZeroError) {
+  const auto truth = random_walk(300, 3);
+  const auto r = evaluate_absolute(moved(truth, 2.1, 1.0, -40.0, 7.5), truth);
+  EXPECT_EQ(r.matched, 300u);
+  EXPECT_EQ(r.total, 300u);
+  EXPECT_NEAR(r.rms, 0.0, 1e-9);
+  EXPECT_NEAR(r.max, 0.0, 1e-9);
+  EXPECT_NEAR(r.scale, 1.0, 1e-12);
+}
+
+TEST(EvaluateAbsolute, AShrunkMapIsScaledBackAndItsErrorGrowsWithItsSize) {
+  const auto truth = random_walk(300, 4);
+  // 1 % smaller: the rigid fit leaves errors of 1 % of each pose's distance from the centroid.
+  const auto r = evaluate_absolute(moved(truth, -0.7, 0.99, 3.0, 1.0), truth);
+  EXPECT_NEAR(r.scale, 1.0 / 0.99, 1e-9);
+  EXPECT_NEAR(r.rms_scaled, 0.0, 1e-9);
+  double cx = 0, cy = 0;
+  for (const auto& p : truth) {
+    cx += p.pose.x / 300;
+    cy += p.pose.y / 300;
+  }
+  double sq = 0;
+  for (const auto& p : truth) sq += std::pow(std::hypot(p.pose.x - cx, p.pose.y - cy), 2) / 300;
+  EXPECT_NEAR(r.rms, 0.01 * std::sqrt(sq), 1e-9);
+}
+
+TEST(EvaluateAbsolute, OneMisplacedPoseOfASymmetricPathIsItsWholeError) {
+  // A square of four poses and its centre; the estimate has the centre 0.5 m off. The fit
+  // moves the estimate by a fifth of that (centroids), turns nothing (the square is symmetric
+  // about the displacement's line), and leaves 0.4 m at the centre, 0.1 m at each corner.
+  std::vector<TimedPose> truth = {
+      {0, {1, 1, 0}}, {1, {-1, 1, 0}}, {2, {-1, -1, 0}}, {3, {1, -1, 0}}, {4, {0, 0, 0}}};
+  std::vector<TimedPose> estimate = truth;
+  estimate[4].pose.x += 0.5;
+  const auto r = evaluate_absolute(estimate, truth);
+  EXPECT_NEAR(r.max, 0.4, 1e-9);
+  EXPECT_NEAR(r.mean, (0.4 + 4 * 0.1) / 5, 1e-9);
+  EXPECT_NEAR(r.rms, std::sqrt((0.16 + 4 * 0.01) / 5), 1e-9);
+}
+
+TEST(EvaluateAbsolute, ReferencePosesWithoutATrajectoryPoseNearbyAreNotMatched) {
+  const auto truth = random_walk(50, 5);  // a pose every 0.2 s
+  std::vector<TimedPose> reference = truth;
+  for (auto& p : reference) p.stamp += 0.05;  // within the tolerance: all match
+  EXPECT_EQ(evaluate_absolute(truth, reference).matched, 50u);
+  EXPECT_EQ(evaluate_absolute(truth, reference, 0.04).matched, 0u);
+  const auto none = evaluate_absolute(truth, reference, 0.04);
+  EXPECT_EQ(none.total, 50u);
+  EXPECT_EQ(none.rms, 0.0);
+  EXPECT_EQ(none.scale, 1.0);
+  reference.push_back({1000.0, {0, 0, 0}});  // after the run
+  EXPECT_EQ(evaluate_absolute(truth, reference).matched, 50u);
+}
+
+TEST(EvaluateAbsolute, RejectsABadToleranceAndNonFiniteInput) {
+  const auto truth = random_walk(10, 6);
+  EXPECT_THROW(evaluate_absolute(truth, truth, -1.0), std::invalid_argument);
+  EXPECT_THROW(evaluate_absolute(truth, truth, std::nan("")), std::invalid_argument);
+  auto bad = truth;
+  bad[3].pose.y = std::nan("");
+  EXPECT_THROW(evaluate_absolute(truth, bad), std::invalid_argument);
+  bad = truth;
+  bad[2].stamp = std::numeric_limits<double>::infinity();
+  EXPECT_THROW(evaluate_absolute(bad, truth), std::invalid_argument);
 }
 
 }  // namespace

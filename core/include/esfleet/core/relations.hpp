@@ -108,4 +108,27 @@ DerivedRelationsResult evaluate_derived_relations(const std::vector<Pose2>& refe
                                                   const std::vector<Pose2>& estimate,
                                                   const std::vector<std::size_t>& gaps);
 
+/// The absolute trajectory error against reference poses (e.g. a corrected log's): how far the
+/// estimate's map is bent or scaled as a whole, which relations between nearby moments hardly
+/// see. The estimate is first moved onto the reference by the rotation and translation that
+/// minimise the squared position errors (closed form; the estimate's frame is arbitrary).
+struct AbsoluteErrorResult {
+  std::size_t matched = 0;  ///< reference poses with a trajectory pose within the tolerance
+  std::size_t total = 0;    ///< reference poses given
+  double rms = 0, mean = 0, max = 0;  ///< position errors after the alignment, metres
+  /// The least-squares scale of the estimate onto the reference (> 1: the estimate is smaller
+  /// than the reference), and the RMS error after aligning with it as well.
+  double scale = 1.0;
+  double rms_scaled = 0;
+};
+
+/// Scores `trajectory` against `reference`, whose stamps are in the trajectory's time base (a
+/// corrected log of the same run): each reference pose against the trajectory pose nearest in
+/// time, within `tolerance` seconds (a tie goes to the earlier pose). Fewer than two matches
+/// give zero statistics; the caller decides. Throws std::invalid_argument if the tolerance is
+/// negative or not finite, or a stamp or reference pose is not finite.
+AbsoluteErrorResult evaluate_absolute(const std::vector<TimedPose>& trajectory,
+                                      const std::vector<TimedPose>& reference,
+                                      double tolerance = 0.15);
+
 }  // namespace esfleet

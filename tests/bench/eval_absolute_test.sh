@@ -1,0 +1,70 @@
+#!/usr/bin/env bash
+# esfleet-eval --reference: the absolute error against a corrected log's poses. A trajectory
+# that is the corrected path in another frame scores zero; with one pose 0.5 m off, that pose
+# carries the error. A key-scan log takes its stamps from the raw log (--reference-raw): without
+# it nothing matches (exit 1). Bad usage exits 2 naming the flag or file.
+# Usage: eval_absolute_test.sh BIN_DIR
+set -euo pipefail
+bin="$1"
+work="$(mktemp -d)"
+trap 'rm -rf "$work"' EXIT
+
+# Five scans of three beams, 0.2 s apart; the raw log's own odometry is anything.
+stamps=(1134864629.1 1134864629.3 1134864629.5 1134864629.7 1134864629.9)
+xs=(0 1 2 3 4)
+for i in 0 1 2 3 4; do
+  echo "${stamps[$i]} ${xs[$i]} 0 0"                                   # estimate: along x
+done > "$work/traj.txt"
+for i in 0 1 2 3 4; do
+  r="1.$i 2.$i 3.$i"
+  echo "FLASER 3 $r 9 9 0 9 9 0 ${stamps[$i]} host ${stamps[$i]}" >> "$work/raw.log"
+  # corrected: the same path turned 90 degrees and moved to (10, 5)
+  echo "FLASER 3 $r 10 $((5 + i)) 1.5708 10 $((5 + i)) 1.5708 ${stamps[$i]} host ${stamps[$i]}" \
+      >> "$work/corrected.log"
+done
+# A key-scan log of scans 0, 2 and 4, its stamps printed to 6 significant digits; scan 4's
+# corrected pose 0.5 m farther on.
+echo "FLASER 3 1.0 2.0 3.0 10 5 1.5708 10 5 1.5708 1.13486e+09 host 1.13486e+09" > "$work/keys.log"
+echo "FLASER 3 1.2 2.2 3.2 10 7 1.5708 10 7 1.5708 1.13486e+09 host 1.13486e+09" >> "$work/keys.log"
+echo "FLASER 3 1.4 2.4 3.4 10 9.5 1.5708 10 9.5 1.5708 1.13486e+09 host 1.13486e+09" >> "$work/keys.log"
+
+"$bin/esfleet-eval" --trajectory "$work/traj.txt" --reference "$work/corrected.log" --json \
+    > "$work/out1.txt"
+"$bin/esfleet-eval" --trajectory "$work/traj.txt" --reference "$work/keys.log" \
+    --reference-raw "$work/raw.log" --json > "$work/out2.txt"
+cat "$work/out1.txt" "$work/out2.txt"
+python3 - "$work/out1.txt" "$work/out2.txt" <<'PY'
+import json, math, sys
+a = json.loads(open(sys.argv[1]).read().strip().splitlines()[-1])["absolute"]
+assert a["matched"] == 5 and a["total"] == 5, a
+assert a["rms"] < 1e-4 and a["max"] < 1e-4 and abs(a["scale"] - 1) < 1e-4, a
+b = json.loads(open(sys.argv[2]).read().strip().splitlines()[-1])["absolute"]
+assert b["matched"] == 3, b
+# Estimate at 0, 2, 4 m along a line, the reference at 0, 2, 4.5 m: after matching the
+# centroids (2 and 13/6) the errors are 1/6, 1/6 and 1/3 m; the best scale is 9/8.
+assert abs(b["max"] - 1 / 3) < 1e-3 and abs(b["mean"] - 2 / 9) < 1e-3, b
+assert abs(b["scale"] - 9 / 8) < 1e-3, b
+print("ok")
+PY
+
+# The key-scan log's own (rounded) stamps match nothing: exit 1, and the warning says why.
+set +e
+"$bin/esfleet-eval" --trajectory "$work/traj.txt" --reference "$work/keys.log" 2> "$work/err.txt"
+rc=$?
+set -e
+[ "$rc" -eq 1 ] || { echo "a key-scan log without --reference-raw exited $rc, expected 1"; exit 1; }
+grep -q -- "--reference-raw" "$work/err.txt" || { echo "the warning does not say --reference-raw"; cat "$work/err.txt"; exit 1; }
+
+expect_usage() {  # expect_usage WHAT_TO_NAME ARGS...
+  local name="$1"; shift
+  set +e
+  "$bin/esfleet-eval" --trajectory "$work/traj.txt" "$@" 2> "$work/err.txt"
+  local rc=$?
+  set -e
+  [ "$rc" -eq 2 ] || { echo "$* exited $rc, expected 2"; exit 1; }
+  grep -q -- "$name" "$work/err.txt" || { echo "$* : the error does not name $name"; cat "$work/err.txt"; exit 1; }
+}
+expect_usage "--reference" --reference-raw "$work/raw.log"
+expect_usage "--relations"
+expect_usage "missing.log" --reference "$work/missing.log"
+echo "ok: bad usage refused"
