@@ -343,12 +343,19 @@ int LeaderApp::run() {
   if (!stats.interrupted && stats.scans > 0) {
     final_pass_ = slam_.finish();
     if (final_pass_->tried > 0) {
+      // The ICP's counts only when it ran (--loop-final-icp-neighbours).
+      const std::string icp =
+          final_pass_->icp_tried == 0
+              ? std::string()
+              : fmt::format(
+                    "; {} of {} pairs of successive key scans aligned by ICP ({} held "
+                    "along a corridor)",
+                    final_pass_->icp_aligned, final_pass_->icp_tried, final_pass_->icp_held);
       spdlog::info(
           "final pass: {} key scans matched against their surroundings, {} matches, {} "
-          "kept; {} of {} pairs of successive key scans aligned by ICP ({} held along a "
-          "corridor); {:.1f} s",
-          final_pass_->tried, final_pass_->matched, final_pass_->kept, final_pass_->icp_aligned,
-          final_pass_->icp_tried, final_pass_->icp_held, final_pass_->ms / 1000.0);
+          "kept{}; {:.1f} s",
+          final_pass_->tried, final_pass_->matched, final_pass_->kept, icp,
+          final_pass_->ms / 1000.0);
     }
   }
   if (checkpoints_) checkpoints_->save(slam_, stats.interrupted ? "interrupted" : "end of input");
