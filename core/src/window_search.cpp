@@ -25,8 +25,9 @@ constexpr float kSlack = 1e-4f;
 
 /// Pooled copies of the scorer's level: at level h, cell (x, y) holds, over the cells
 /// [x, x + w_h) x [y, y + w_h) (w_h the cells a block of 2^h positions can put one end point
-/// on), the largest non-negative score and whether every cell has err > 0 (1 or 0); padded by
-/// `pad` >= w_h cells on every side (0 there: unknown).
+/// on), the largest non-negative score and whether every cell has err > 0; padded by
+/// `pad` >= w_h cells on every side (0 there: unknown). One float a cell (the search's largest
+/// allocation): its magnitude is the score, its sign bit clear when every cell has err > 0.
 class BoundGrids {
  public:
   BoundGrids(const HeadingScorer& scorer, double cells_per_step, int levels, bool use_penalty)
@@ -41,19 +42,18 @@ class BoundGrids {
     stride_ = w0 + 2 * pad_;
     rows_ = h0 + 2 * pad_;
     const std::size_t size = static_cast<std::size_t>(stride_) * static_cast<std::size_t>(rows_);
-    std::vector<Cell> cur(size, Cell{0.0f, 0.0f});
+    std::vector<float> cur(size, cell(0.0f, false));
     for (std::int32_t y = 0; y < h0; ++y) {
       for (std::int32_t x = 0; x < w0; ++x) {
         const float v = scorer.cells()[static_cast<std::size_t>(y) * w0 + x];
         // The scorer's terms: sum of max(v, 0), n_hit v > 0, n_err 0 <= v < 1.
-        cur[index(x, y)] = {std::max(v, 0.0f), (v >= 0.0f) & (v < 1.0f) ? 1.0f : 0.0f};
+        cur[index(x, y)] = cell(std::max(v, 0.0f), (v >= 0.0f) & (v < 1.0f));
       }
     }
     grids_.emplace_back();  // level 0 is scored exactly
     int width = 1;
-    auto pool = [](Cell& a, const Cell& b) {
-      a.value = std::max(a.value, b.value);
-      a.err = std::min(a.err, b.err);
+    auto pool = [](float& a, float b) {
+      a = cell(std::max(std::abs(a), std::abs(b)), err(a) && err(b));
     };
     for (int h = 1; h <= levels; ++h) {
       // Widen [x, x + width) to [x, x + widths[h]) along x, then along y, by steps that at
@@ -63,7 +63,7 @@ class BoundGrids {
         const std::size_t down = static_cast<std::size_t>(add) * stride_;
         for (std::size_t i = 0; i + down < size; ++i) pool(cur[i], cur[i + down]);
         for (std::int32_t y = 0; y < rows_; ++y) {
-          Cell* row = cur.data() + static_cast<std::size_t>(y) * stride_;
+          float* row = cur.data() + static_cast<std::size_t>(y) * stride_;
           for (std::int32_t x = 0; x + add < stride_; ++x) pool(row[x], row[x + add]);
         }
         width += add;
@@ -77,7 +77,7 @@ class BoundGrids {
   /// sum <= the sum of the largest values; n_hit <= hits (a cell scores > 0 iff hit > 0);
   /// n_err >= errs; p_occ = n_hit / (n_hit + n_err) <= hits / (hits + errs).
   float bound(int h, const std::int32_t* cols, const std::int32_t* rows, std::size_t n) const {
-    const Cell* grid = grids_[static_cast<std::size_t>(h)].data();
+    const float* grid = grids_[static_cast<std::size_t>(h)].data();
     // Beyond the padding every window is unknown, as at the padding's outer edge (pad >= w_h).
     const std::int32_t x_hi = stride_ - 1 - pad_, y_hi = rows_ - 1 - pad_;
     float sum = 0.0f, errs = 0.0f;
@@ -85,10 +85,11 @@ class BoundGrids {
     for (std::size_t j = 0; j < n; ++j) {
       const std::int32_t x = std::clamp(cols[j], -pad_, x_hi) + pad_;
       const std::int32_t y = std::clamp(rows[j], -pad_, y_hi) + pad_;
-      const Cell& c = grid[static_cast<std::size_t>(y) * stride_ + static_cast<std::size_t>(x)];
-      sum += c.value;
-      hits += c.value > 0.0f;
-      errs += c.err;
+      const float c = grid[static_cast<std::size_t>(y) * stride_ + static_cast<std::size_t>(x)];
+      const float value = std::abs(c);
+      sum += value;
+      hits += value > 0.0f;
+      errs += err(c) ? 1.0f : 0.0f;
     }
     if (!use_penalty_) return sum;
     const auto h_f = static_cast<float>(hits);
@@ -96,16 +97,16 @@ class BoundGrids {
   }
 
  private:
-  struct Cell {
-    float value;
-    float err;
-  };
+  /// `value` >= 0 with the sign bit set when not every cell has err > 0 (-0.0f included).
+  static float cell(float value, bool every_err) { return every_err ? value : -value; }
+  static bool err(float c) { return !std::signbit(c); }
+
   std::size_t index(std::int32_t x, std::int32_t y) const {
     return static_cast<std::size_t>(y + pad_) * stride_ + static_cast<std::size_t>(x + pad_);
   }
   bool use_penalty_;
   std::int32_t pad_ = 0, stride_ = 0, rows_ = 0;
-  std::vector<std::vector<Cell>> grids_;
+  std::vector<std::vector<float>> grids_;
 };
 
 struct Block {
