@@ -2,6 +2,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
@@ -70,6 +71,39 @@ void Checkpointer::write_journal() {
   write_file_atomically(dir_ + "/journal.json", j.dump() + "\n");
 }
 
+CounterCopy::CounterCopy(std::span<const std::uint32_t> hit, std::span<const std::uint32_t> err)
+    : n_(hit.size()) {
+  if (err.size() != hit.size())
+    throw std::invalid_argument("CounterCopy: hit and err sizes differ");
+  const auto fits = [](std::span<const std::uint32_t> c) {
+    return std::all_of(c.begin(), c.end(), [](std::uint32_t x) { return x <= 0xffffu; });
+  };
+  if (fits(hit) && fits(err)) {
+    narrow_.reserve(2 * n_);
+    narrow_.insert(narrow_.end(), hit.begin(), hit.end());
+    narrow_.insert(narrow_.end(), err.begin(), err.end());
+  } else {
+    wide_.reserve(2 * n_);
+    wide_.insert(wide_.end(), hit.begin(), hit.end());
+    wide_.insert(wide_.end(), err.begin(), err.end());
+  }
+}
+
+void CounterCopy::take(std::vector<std::uint32_t>& hit, std::vector<std::uint32_t>& err) {
+  hit.resize(n_);
+  err.resize(n_);
+  if (!narrow_.empty() || wide_.empty()) {
+    std::copy_n(narrow_.begin(), n_, hit.begin());
+    std::copy_n(narrow_.begin() + static_cast<std::ptrdiff_t>(n_), n_, err.begin());
+  } else {
+    std::copy_n(wide_.begin(), n_, hit.begin());
+    std::copy_n(wide_.begin() + static_cast<std::ptrdiff_t>(n_), n_, err.begin());
+  }
+  narrow_ = {};
+  wide_ = {};
+  n_ = 0;
+}
+
 struct Checkpointer::Job {
   std::uint64_t generation = 0;
   CheckpointInfo info;
@@ -82,7 +116,7 @@ struct Checkpointer::Job {
   struct Changed {
     TileKey key;
     std::uint64_t version = 0;
-    std::vector<std::uint32_t> hit, err;
+    CounterCopy counters;
   };
   std::vector<Changed> changed;
   std::string why;  ///< for the log line; empty = periodic
@@ -102,7 +136,7 @@ std::unique_ptr<Checkpointer::Job> Checkpointer::prepare(Slam& slam, const Check
     job->tiles.emplace_back(k, t.version);
     const auto it = handed_.find(k);
     if (it != handed_.end() && it->second == t.version) continue;
-    job->changed.push_back({k, t.version, t.hit, t.err});
+    job->changed.push_back({k, t.version, CounterCopy(t.hit, t.err)});
     handed_[k] = t.version;
   }
   reserve(map);  // the journal covers every version in the snapshot
@@ -110,10 +144,10 @@ std::unique_ptr<Checkpointer::Job> Checkpointer::prepare(Slam& slam, const Check
 }
 
 std::uint64_t Checkpointer::write(Job& job) {
+  std::vector<std::uint32_t> hit, err;
   for (Job::Changed& c : job.changed) {
-    encoded_[c.key] = {c.version, encode_tile(c.hit, c.err, TileEncoding::kMedZlib)};
-    c.hit = {};
-    c.err = {};
+    c.counters.take(hit, err);
+    encoded_[c.key] = {c.version, encode_tile(hit, err, TileEncoding::kMedZlib)};
   }
   std::vector<SnapshotTile> tiles;
   tiles.reserve(job.tiles.size());

@@ -25,11 +25,13 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <span>
 #include <thread>
 #include <unordered_map>
 #include <vector>
 
 #include <nlohmann/json.hpp>
+#include <span>
 #include <string>
 
 #include "esfleet/core/grid_map.hpp"
@@ -116,6 +118,25 @@ Resumed read_checkpoint(const std::string& checkpoint_dir, Slam& slam);
 /// the new versions.
 /// Throws std::runtime_error naming the file and field on a missing or corrupt checkpoint.
 Resumed load_checkpoint(const std::string& dir, Slam& slam);
+
+/// A tile's counters copied for the checkpoint writer thread: 16 bits each when every counter
+/// of the tile fits (nearly always), else 32. After a loop closure re-writes many key scans
+/// these copies were the largest allocation at the leader's peak (docs/benchmarks.md).
+class CounterCopy {
+ public:
+  /// Throws std::invalid_argument if the sizes differ.
+  CounterCopy(std::span<const std::uint32_t> hit, std::span<const std::uint32_t> err);
+  bool narrow() const { return !narrow_.empty() || wide_.empty(); }
+  /// Bytes the copy holds.
+  std::size_t bytes() const { return 2 * narrow_.size() + 4 * wide_.size(); }
+  /// The counters again, exactly, into `hit` and `err` (resized); frees the copy.
+  void take(std::vector<std::uint32_t>& hit, std::vector<std::uint32_t>& err);
+
+ private:
+  std::size_t n_ = 0;
+  std::vector<std::uint16_t> narrow_;  ///< hit then err
+  std::vector<std::uint32_t> wide_;    ///< hit then err, when a counter is above 65535
+};
 
 /// The checkpoints of one leader run (`--checkpoint-every N`): OUT/checkpoint written every N
 /// scans and at the end, and the publish journal kept ahead of every publish. A failure to

@@ -45,6 +45,33 @@ LaserScan scan(int i) {
 
 CheckpointInfo info() { return {"map", 7, 0, "log test", "{\"mu\":\"100\"}"}; }
 
+TEST(CounterCopy, KeepsCountersExactlyInHalfTheBytesWhenTheyFitSixteenBits) {
+  std::vector<std::uint32_t> hit(4096), err(4096);
+  for (std::size_t i = 0; i < hit.size(); ++i) {
+    hit[i] = static_cast<std::uint32_t>((i * 7919) % 65536);
+    err[i] = static_cast<std::uint32_t>((i * 104729) % 3001);
+  }
+  CounterCopy narrow(hit, err);
+  EXPECT_TRUE(narrow.narrow());
+  EXPECT_EQ(narrow.bytes(), 2 * 4096 * sizeof(std::uint16_t));
+  std::vector<std::uint32_t> h, e;
+  narrow.take(h, e);
+  EXPECT_EQ(h, hit);
+  EXPECT_EQ(e, err);
+  EXPECT_EQ(narrow.bytes(), 0u);  // freed
+
+  // One counter above 65535 (a long run) keeps the whole tile in 32 bits, exactly.
+  err[4095] = 65536;
+  CounterCopy wide(hit, err);
+  EXPECT_FALSE(wide.narrow());
+  EXPECT_EQ(wide.bytes(), 2 * 4096 * sizeof(std::uint32_t));
+  wide.take(h, e);
+  EXPECT_EQ(h, hit);
+  EXPECT_EQ(e, err);
+
+  EXPECT_THROW(CounterCopy(hit, std::vector<std::uint32_t>(10)), std::invalid_argument);
+}
+
 TEST(CheckpointSchedule, AResumedLeaderContinuesExactlyAsAnUninterruptedOne) {
   const fs::path out = fresh_dir("resume");
   SlamConfig config;
