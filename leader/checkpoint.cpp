@@ -73,8 +73,9 @@ void Checkpointer::write_journal() {
 
 CounterCopy::CounterCopy(std::span<const std::uint32_t> hit, std::span<const std::uint32_t> err)
     : n_(hit.size()) {
-  if (err.size() != hit.size())
+  if (err.size() != hit.size()) {
     throw std::invalid_argument("CounterCopy: hit and err sizes differ");
+  }
   const auto fits = [](std::span<const std::uint32_t> c) {
     return std::all_of(c.begin(), c.end(), [](std::uint32_t x) { return x <= 0xffffu; });
   };
