@@ -130,6 +130,9 @@ void add_slam_params(ParamTable& t, SlamConfig* s, CarmenReaderOptions* r) {
   t.add_double("loop_final_icp_degenerate_ratio", &s->loop.icp.degenerate_ratio,
                "final pass ICP: a direction the scans constrain less than this share of the "
                "best-constrained one keeps the tracked motion (a corridor's axis; 0 = off)");
+  t.add_double("loop_final_icp_min_normal_cos", &s->loop.icp.min_normal_cos,
+               "final pass ICP: an end point pairs only with a line whose normal is within "
+               "acos(this) of its own line's (0 = off: every end point may pair)");
   t.add_double("loop_max_chi2", &s->loop.max_chi2,
                "graph cost increase above which a loop closure is dropped");
   t.add_double("loop_sigma_xy", &s->loop.sigma_xy,

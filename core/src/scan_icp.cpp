@@ -15,9 +15,10 @@ namespace {
 
 /// A reference end point with the line through it and its neighbours.
 struct Line {
-  double px, py;  ///< a point on the line (the neighbours' mean)
-  double nx, ny;  ///< unit normal
-  double x, y;    ///< the end point itself (what pairing measures to)
+  double px, py;      ///< a point on the line (the neighbours' mean)
+  double nx, ny;      ///< unit normal
+  double x, y;        ///< the end point itself (what pairing measures to)
+  std::size_t index;  ///< of the end point in its scan
 };
 
 /// Lines through the reference end points whose neighbours along the scan lie on one.
@@ -55,7 +56,8 @@ std::vector<Line> fit_lines(const ScanPoints& ref, const IcpConfig& c) {
     }
     const double len = std::hypot(nx, ny);
     if (len < 1e-12) continue;  // all points at one spot: no direction
-    lines.push_back({ref.x[i] + mx, ref.y[i] + my, nx / len, ny / len, ref.x[i], ref.y[i]});
+    lines.push_back({ref.x[i] + mx, ref.y[i] + my, nx / len, ny / len, ref.x[i], ref.y[i],
+                     static_cast<std::size_t>(i)});
   }
   return lines;
 }
@@ -126,6 +128,9 @@ void IcpConfig::validate() const {
   if (!(degenerate_ratio >= 0.0 && degenerate_ratio < 1.0)) {
     throw std::invalid_argument("icp.degenerate_ratio must be in [0, 1)");
   }
+  if (!(min_normal_cos >= 0.0 && min_normal_cos <= 1.0)) {
+    throw std::invalid_argument("icp.min_normal_cos must be in [0, 1]");
+  }
 }
 
 std::optional<IcpResult> align_scans(const ScanPoints& reference, const ScanPoints& moving,
@@ -133,6 +138,12 @@ std::optional<IcpResult> align_scans(const ScanPoints& reference, const ScanPoin
   const std::vector<Line> lines = fit_lines(reference, c);
   if (lines.size() < c.min_pairs) return std::nullopt;
   const LineGrid grid(lines, c.max_distance);
+  // The moving points' own line normals (0, 0: none), for the normal check.
+  std::vector<std::pair<double, double>> own;
+  if (c.min_normal_cos > 0.0) {
+    own.assign(moving.size(), {0.0, 0.0});
+    for (const Line& l : fit_lines(moving, c)) own[l.index] = {l.nx, l.ny};
+  }
   const double w_point = 1.0 / (c.point_sigma * c.point_sigma);
   const double w_xy = 1.0 / (c.prior_sigma_xy * c.prior_sigma_xy);
   const double w_theta = 1.0 / std::pow(deg_to_rad(c.prior_sigma_theta_deg), 2);
@@ -149,6 +160,15 @@ std::optional<IcpResult> align_scans(const ScanPoints& reference, const ScanPoin
       const double qx = pose.x + cs * bx - sn * by, qy = pose.y + sn * bx + cs * by;
       const Line* l = grid.nearest(qx, qy, c.max_distance);
       if (l == nullptr) continue;
+      if (!own.empty()) {
+        const auto [ox, oy] = own[i];
+        if (ox == 0.0 && oy == 0.0) continue;
+        // Normals have no sign: compare the cosine's magnitude.
+        if (std::abs(l->nx * (cs * ox - sn * oy) + l->ny * (sn * ox + cs * oy)) <
+            c.min_normal_cos) {
+          continue;
+        }
+      }
       const double r = l->nx * (qx - l->px) + l->ny * (qy - l->py);
       ++pairs;
       *sum_sq += r * r;

@@ -183,6 +183,39 @@ TEST(ScanIcp, ConfigValidationNamesTheField) {
   IcpConfig r;
   r.degenerate_ratio = 1.0;
   EXPECT_THROW(r.validate(), std::invalid_argument);
+  IcpConfig n;
+  n.min_normal_cos = 1.5;
+  EXPECT_THROW(n.validate(), std::invalid_argument);
+}
+
+TEST(ScanIcp, AnEndPointPairsOnlyWithALineLikeItsOwn) {
+  const auto world = asymmetric_room();
+  const Pose2 a{6.0, 4.0, 0.3};
+  const Pose2 motion{0.2, 0.02, 0.05};
+  const Pose2 start{0.18, 0.04, 0.06};
+  const ScanPoints ref = scan_at(world, a);
+  const ScanPoints moving = scan_at(world, a.compose(motion));
+  // Every moving end point moved 3 cm to alternate sides of its wall: no line of its own fits
+  // (they scatter more than max_line_rms about one), so with the check nothing pairs.
+  ScanPoints zigzag = moving;
+  for (std::size_t i = 0; i < zigzag.size(); ++i) {
+    const float s = (i % 2 == 0 ? 0.03f : -0.03f) / std::max(zigzag.range[i], 0.1f);
+    const float x = zigzag.x[i], y = zigzag.y[i];
+    zigzag.x[i] = x - s * y;  // across the beam
+    zigzag.y[i] = y + s * x;
+  }
+  IcpConfig off;
+  off.min_normal_cos = 0.0;
+  EXPECT_FALSE(align_scans(ref, zigzag, start).has_value());
+  EXPECT_TRUE(align_scans(ref, zigzag, start, off).has_value());
+  // Clean scans align as well with the check as without it.
+  const auto on = align_scans(ref, moving, start);
+  const auto without = align_scans(ref, moving, start, off);
+  ASSERT_TRUE(on.has_value());
+  ASSERT_TRUE(without.has_value());
+  const Pose2 e = on->relative.relative_to(motion);
+  EXPECT_LT(std::hypot(e.x, e.y), 0.005);
+  EXPECT_LT(on->pairs, without->pairs);  // the corners' end points no longer pair
 }
 
 }  // namespace

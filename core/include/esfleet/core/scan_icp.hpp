@@ -41,6 +41,11 @@ struct IcpConfig {
   /// A translation direction constrained less than this share of the best-constrained one keeps
   /// the start. 0 = off.
   double degenerate_ratio = 0.1;
+  /// A moving end point pairs only with a reference line whose normal is within acos(this) of
+  /// its own line's (fitted the same way; a point without one is not paired): a point on one
+  /// wall paired with the line of another, e.g. at a corner, pulled real alignments shorter.
+  /// 0 = off (every moving point may pair).
+  double min_normal_cos = 0.94;
 
   /// Throws std::invalid_argument naming the field.
   void validate() const;
