@@ -79,26 +79,29 @@ CounterCopy::CounterCopy(std::span<const std::uint32_t> hit, std::span<const std
   const auto fits = [](std::span<const std::uint32_t> c) {
     return std::all_of(c.begin(), c.end(), [](std::uint32_t x) { return x <= 0xffffu; });
   };
+  auto fill = [&](auto& both) {
+    both.reserve(2 * n_);
+    both.insert(both.end(), hit.begin(), hit.end());
+    both.insert(both.end(), err.begin(), err.end());
+  };
   if (fits(hit) && fits(err)) {
-    narrow_.reserve(2 * n_);
-    narrow_.insert(narrow_.end(), hit.begin(), hit.end());
-    narrow_.insert(narrow_.end(), err.begin(), err.end());
+    fill(narrow_);
   } else {
-    wide_.reserve(2 * n_);
-    wide_.insert(wide_.end(), hit.begin(), hit.end());
-    wide_.insert(wide_.end(), err.begin(), err.end());
+    fill(wide_);
   }
 }
 
 void CounterCopy::take(std::vector<std::uint32_t>& hit, std::vector<std::uint32_t>& err) {
   hit.resize(n_);
   err.resize(n_);
-  if (!narrow_.empty() || wide_.empty()) {
-    std::copy_n(narrow_.begin(), n_, hit.begin());
-    std::copy_n(narrow_.begin() + static_cast<std::ptrdiff_t>(n_), n_, err.begin());
+  auto split = [&](const auto& both) {
+    std::copy_n(both.begin(), n_, hit.begin());
+    std::copy_n(both.begin() + static_cast<std::ptrdiff_t>(n_), n_, err.begin());
+  };
+  if (narrow()) {
+    split(narrow_);
   } else {
-    std::copy_n(wide_.begin(), n_, hit.begin());
-    std::copy_n(wide_.begin() + static_cast<std::ptrdiff_t>(n_), n_, err.begin());
+    split(wide_);
   }
   narrow_ = {};
   wide_ = {};

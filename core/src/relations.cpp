@@ -65,6 +65,21 @@ struct IndexedStamp {
   std::size_t index = 0;
 };
 
+/// `trajectory` in stamp order (equal stamps keep their order), for nearest(). Throws
+/// std::invalid_argument naming the first pose with a non-finite stamp.
+std::vector<TimedPose> sorted_by_stamp(const std::vector<TimedPose>& trajectory) {
+  for (std::size_t i = 0; i < trajectory.size(); ++i) {
+    if (!std::isfinite(trajectory[i].stamp)) {
+      throw std::invalid_argument("trajectory pose " + std::to_string(i) +
+                                  " has a non-finite stamp");
+    }
+  }
+  std::vector<TimedPose> sorted = trajectory;
+  std::stable_sort(sorted.begin(), sorted.end(),
+                   [](const TimedPose& a, const TimedPose& b) { return a.stamp < b.stamp; });
+  return sorted;
+}
+
 bool is_finite(const Pose2& p) {
   return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.theta);
 }
@@ -84,16 +99,7 @@ RelationsResult evaluate_relations(const std::vector<TimedPose>& trajectory,
                                    const std::vector<Relation>& relations,
                                    const RelationsOptions& options) {
   check_options(options);
-  for (std::size_t i = 0; i < trajectory.size(); ++i) {
-    if (!std::isfinite(trajectory[i].stamp)) {
-      throw std::invalid_argument("trajectory pose " + std::to_string(i) +
-                                  " has a non-finite stamp");
-    }
-  }
-
-  std::vector<TimedPose> sorted = trajectory;
-  std::stable_sort(sorted.begin(), sorted.end(),
-                   [](const TimedPose& a, const TimedPose& b) { return a.stamp < b.stamp; });
+  const std::vector<TimedPose> sorted = sorted_by_stamp(trajectory);
 
   std::vector<double> trans_errors, rot_errors;
   trans_errors.reserve(relations.size());
@@ -200,15 +206,7 @@ AbsoluteErrorResult evaluate_absolute(const std::vector<TimedPose>& trajectory,
   if (!std::isfinite(tolerance) || tolerance < 0.0) {
     throw std::invalid_argument("evaluate_absolute: tolerance must be finite and >= 0");
   }
-  std::vector<TimedPose> sorted = trajectory;
-  for (std::size_t i = 0; i < sorted.size(); ++i) {
-    if (!std::isfinite(sorted[i].stamp)) {
-      throw std::invalid_argument("trajectory pose " + std::to_string(i) +
-                                  " has a non-finite stamp");
-    }
-  }
-  std::stable_sort(sorted.begin(), sorted.end(),
-                   [](const TimedPose& a, const TimedPose& b) { return a.stamp < b.stamp; });
+  const std::vector<TimedPose> sorted = sorted_by_stamp(trajectory);
   // Matched pairs: (reference position, estimated position).
   std::vector<std::array<double, 4>> pairs;
   for (std::size_t i = 0; i < reference.size(); ++i) {
