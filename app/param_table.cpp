@@ -10,6 +10,7 @@
 #include <limits>
 #include <sstream>
 #include <stdexcept>
+#include <utility>
 
 namespace esfleet::app {
 
@@ -76,7 +77,11 @@ void ParamTable::add(std::string name, std::string type, std::string help,
 }
 
 ParamTable::Param* ParamTable::find(const std::string& name) {
-  for (Param& p : params_)
+  return const_cast<Param*>(std::as_const(*this).find(name));
+}
+
+const ParamTable::Param* ParamTable::find(const std::string& name) const {
+  for (const Param& p : params_)
     if (p.name == name) return &p;
   return nullptr;
 }
@@ -163,6 +168,7 @@ void ParamTable::apply() {
     } catch (const std::invalid_argument& e) {
       throw UsageError("--" + dashed(p.name) + ": " + e.what());
     }
+    p.given = true;
   }
 }
 
@@ -192,6 +198,7 @@ void ParamTable::load_yaml(const std::string& path) {
     } catch (const std::invalid_argument& e) {
       throw UsageError(path + ":" + line + ": '" + key + "': " + e.what());
     }
+    p->given = true;
   }
 }
 
@@ -217,6 +224,17 @@ std::string ParamTable::describe_changes() const {
     out += (i == 0 ? " " : ", ") + c[i].first + " = " + c[i].second;
   }
   return out;
+}
+
+bool ParamTable::given(const std::string& name) const {
+  const Param* p = find(name);
+  return p != nullptr && p->given;
+}
+
+void ParamTable::set(const std::string& name, const std::string& value) {
+  Param* p = find(name);
+  if (p == nullptr) throw std::invalid_argument("unknown parameter '" + name + "'");
+  p->set(value);
 }
 
 }  // namespace esfleet::app

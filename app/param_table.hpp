@@ -64,6 +64,11 @@ class ParamTable {
   std::vector<std::pair<std::string, std::string>> changed() const;
   /// One log line's worth: "all defaults", or "N changed: a = 1, b = on".
   std::string describe_changes() const;
+  /// After apply(): whether `name` was set by a flag on the command line or by the --config file.
+  bool given(const std::string& name) const;
+  /// Sets parameter `name` from text as a flag would. Throws std::invalid_argument for an
+  /// unknown name or a value its parser refuses.
+  void set(const std::string& name, const std::string& value);
 
  private:
   struct Param {
@@ -74,12 +79,14 @@ class ParamTable {
     std::function<std::string()> get;
     std::string cli_value;
     std::string at_bind;  ///< the value at bind()
+    bool given = false;   ///< set by --config or a flag
     CLI::Option* option = nullptr;
   };
   /// `type` is what --help shows for the value (FLOAT, INT, on|off, ...).
   void add(std::string name, std::string type, std::string help,
            std::function<void(const std::string&)> set, std::function<std::string()> get);
   Param* find(const std::string& name);
+  const Param* find(const std::string& name) const;
 
   std::vector<Param> params_;
   std::string config_path_;

@@ -274,6 +274,26 @@ Resumed read_checkpoint(const std::string& checkpoint_dir, Slam& slam) {
   return r;
 }
 
+std::vector<std::pair<std::string, std::string>> checkpoint_parameters(const std::string& dir) {
+  const fs::path manifest_path = fs::path(dir) / "checkpoint" / "manifest.json";
+  if (!fs::exists(manifest_path)) {
+    throw std::runtime_error(manifest_path.string() + ": missing (no checkpoint in " + dir + ")");
+  }
+  const auto params = field<nlohmann::json>(read_json(manifest_path), "parameters", manifest_path);
+  if (!params.is_object()) {
+    throw std::runtime_error(manifest_path.string() + ": field 'parameters' is not an object");
+  }
+  std::vector<std::pair<std::string, std::string>> out;
+  for (const auto& [name, value] : params.items()) {
+    if (!value.is_string()) {
+      throw std::runtime_error(manifest_path.string() + ": field 'parameters': '" + name +
+                               "' is not a string");
+    }
+    out.emplace_back(name, value.get<std::string>());
+  }
+  return out;
+}
+
 Resumed load_checkpoint(const std::string& dir, Slam& slam) {
   const fs::path base = fs::path(dir) / "checkpoint";
   const fs::path manifest_path = base / "manifest.json";

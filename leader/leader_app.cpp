@@ -34,7 +34,9 @@ std::string changed_params(const std::string& saved_json, const nlohmann::json& 
   const nlohmann::json saved = nlohmann::json::parse(saved_json);
   std::string out;
   for (const auto& [name, value] : now.items()) {
-    const std::string was = saved.contains(name) ? saved[name].dump() : "(none)";
+    // One the checkpoint lacks was noted when the options took the checkpoint's parameters.
+    if (!saved.contains(name)) continue;
+    const std::string was = saved[name].dump();
     if (was != value.dump())
       out += (out.empty() ? "" : ", ") + name + " (" + was + " -> " + value.dump() + ")";
   }
@@ -111,9 +113,11 @@ LeaderApp::LeaderApp(LeaderOptions options, const std::atomic<bool>& stop)
   }
   if (!o_.resume_dir.empty()) resume_checkpoint();
   if (!o_.log.empty()) read_log();
-  spdlog::info("SLAM parameters: {}{}; all {} in stats.json and at --log-level debug",
+  spdlog::info("SLAM parameters{}: {}{}; all {} in stats.json and at --log-level debug",
+               o_.resume_dir.empty() ? "" : " (the checkpoint's)",
                o_.paper ? "the paper's configuration, " : "", o_.parameter_changes,
                o_.parameters.size());
+  for (const std::string& note : o_.resume_notes) spdlog::warn("--resume: {}", note);
   for (const auto& [name, value] : o_.parameters) spdlog::debug("  {} = {}", name, value);
   if (!o_.offline) open_dds();
   if (o_.checkpoint_every > 0) open_checkpoints();

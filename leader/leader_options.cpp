@@ -1,10 +1,14 @@
 #include "leader_options.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <set>
 #include <stdexcept>
 
 #include "app/dds_flags.hpp"
+#include "app/program.hpp"
 #include "app/slam_params.hpp"
+#include "checkpoint.hpp"
 
 namespace esfleet::leader {
 
@@ -99,8 +103,10 @@ void add_leader_flags(CLI::App& cli, LeaderOptions& o, app::ParamTable& params) 
                  "at most the N - 1 scans since the last one")
       ->capture_default_str();
   cli.add_option("--resume", o.resume_dir,
-                 "continue the map checkpointed in DIR/checkpoint (same map id, epoch and "
-                 "parameters; --log continues after the last checkpointed scan)");
+                 "continue the map checkpointed in DIR/checkpoint (same map id and epoch; the SLAM "
+                 "parameters are the checkpoint's, and a SLAM flag, --config or --paper given "
+                 "with it must agree with them; --log continues after the last checkpointed "
+                 "scan)");
   cli.add_flag("--paper", o.paper,
                "start from the paper's exact configuration (previous-pose prediction, no "
                "extensions) before applying --config and the flags below");
@@ -151,9 +157,65 @@ void add_leader_flags(CLI::App& cli, LeaderOptions& o, app::ParamTable& params) 
   params.bind(cli, "SLAM parameters");
 }
 
+namespace {
+
+/// --resume: the checkpoint's parameters for every one not given now (--paper, --config or a
+/// flag); a given one must agree with the checkpoint. A parameter the checkpoint lacks (written
+/// by an older esfleet) keeps this run's value, one it has that this version lacks is ignored;
+/// both are noted.
+void adopt_checkpoint_parameters(LeaderOptions& o, app::ParamTable& params) {
+  std::vector<std::pair<std::string, std::string>> saved;
+  try {
+    saved = checkpoint_parameters(o.resume_dir);
+  } catch (const std::runtime_error& e) {
+    throw app::UsageError("--resume " + o.resume_dir + ": " + e.what());
+  }
+  std::set<std::string> by_paper;
+  if (o.paper) {
+    for (const auto& [name, value] : params.changed()) by_paper.insert(name);
+  }
+  std::set<std::string> known;
+  std::string conflicts;
+  for (const auto& [name, now] : params.values()) {
+    known.insert(name);
+    const auto it =
+        std::find_if(saved.begin(), saved.end(), [&](const auto& s) { return s.first == name; });
+    if (it == saved.end()) {
+      o.resume_notes.push_back(name + " = " + now +
+                               ": the checkpoint does not have it (written by an older esfleet)");
+    } else if (it->second != now) {
+      if (params.given(name) || by_paper.count(name) != 0) {
+        conflicts += (conflicts.empty() ? "" : ", ") + name + " (checkpoint " + it->second +
+                     ", given " + now + ")";
+        continue;
+      }
+      try {
+        params.set(name, it->second);
+      } catch (const std::invalid_argument& e) {
+        throw app::UsageError("--resume " + o.resume_dir + ": checkpoint parameter '" + name +
+                              "': " + e.what());
+      }
+    }
+  }
+  for (const auto& [name, value] : saved) {
+    if (known.count(name) == 0) {
+      o.resume_notes.push_back(name + " = " + value +
+                               ": the checkpoint has it but this esfleet does not; ignored");
+    }
+  }
+  if (!conflicts.empty()) {
+    throw app::UsageError("--resume " + o.resume_dir +
+                          ": the SLAM parameters given differ from the checkpoint's: " + conflicts +
+                          " (leave them out to continue with the checkpoint's)");
+  }
+}
+
+}  // namespace
+
 void finish_leader_options(LeaderOptions& o, app::ParamTable& params) {
   if (o.paper) o.slam = SlamConfig::paper();
   params.apply();
+  if (!o.resume_dir.empty() && !o.serving_map()) adopt_checkpoint_parameters(o, params);
   o.parameters = params.values();
   o.parameter_changes = params.describe_changes();
   o.validate();

@@ -62,6 +62,9 @@ struct LeaderOptions {
   std::vector<std::pair<std::string, std::string>> parameters;
   /// The parameters not at their defaults, for the log ("all defaults" or "2 changed: ...").
   std::string parameter_changes;
+  /// --resume: what could not be taken from the checkpoint as it is (a parameter it lacks or
+  /// one this version does not know), one line each, for the log.
+  std::vector<std::string> resume_notes;
 
   /// Throws std::invalid_argument naming the flag.
   void validate() const;
@@ -76,9 +79,11 @@ struct LeaderOptions {
 /// must outlive the parse).
 void add_leader_flags(CLI::App& cli, LeaderOptions& o, app::ParamTable& params);
 
-/// After parsing: applies --paper, then the parameter file and flags (`params`), records the
-/// parameters and validates. Throws std::invalid_argument (or std::runtime_error from the
-/// parameter file) naming the flag, file or line.
+/// After parsing: applies --paper, then the parameter file and flags (`params`); with --resume
+/// every parameter not given by --paper, the file or a flag takes the checkpoint's value, and a
+/// given one that differs from it is a UsageError naming it. Records the parameters and
+/// validates. Throws std::invalid_argument (or std::runtime_error from the parameter file or
+/// the checkpoint's manifest) naming the flag, file or line.
 void finish_leader_options(LeaderOptions& o, app::ParamTable& params);
 
 }  // namespace esfleet::leader

@@ -4,7 +4,10 @@
 #include "app/program.hpp"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
+#include <filesystem>
+#include <fstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -106,6 +109,35 @@ TEST(ParamTable, DescribesWhatDiffersFromTheDefaults) {
   EXPECT_EQ(t.describe_changes(), "1 changed: mu = 50");
   d = 0.25;  // e.g. --paper replaced the configuration
   EXPECT_EQ(t.describe_changes(), "2 changed: alpha_xy = 0.25, mu = 50");
+}
+
+TEST(ParamTable, KnowsWhichParametersTheFileOrAFlagGaveAndSetsByName) {
+  double d = 0.5;
+  int i = 3;
+  bool b = false;
+  ParamTable t;
+  t.add_double("alpha_xy", &d, "a length");
+  t.add_int("mu", &i, "parents");
+  t.add_switch("penalty", &b, "a switch");
+  const std::filesystem::path yaml =
+      std::filesystem::path(::testing::TempDir()) / ("params-given-" + std::to_string(::getpid()));
+  std::ofstream(yaml) << "alpha_xy: 0.5\n";  // given, even though it is the default
+  CLI::App app;
+  t.bind(app);
+  const std::string path = yaml.string();
+  const char* argv[] = {"x", "--config", path.c_str(), "--mu", "3"};
+  app.parse(5, const_cast<char**>(argv));
+  t.apply();
+  std::filesystem::remove(yaml);
+  EXPECT_TRUE(t.given("alpha_xy"));
+  EXPECT_TRUE(t.given("mu"));
+  EXPECT_FALSE(t.given("penalty"));
+  EXPECT_FALSE(t.given("no_such"));
+  t.set("penalty", "on");
+  EXPECT_TRUE(b);
+  EXPECT_THROW(t.set("mu", "many"), std::invalid_argument);
+  EXPECT_EQ(i, 3);
+  EXPECT_THROW(t.set("no_such", "1"), std::invalid_argument);
 }
 
 }  // namespace

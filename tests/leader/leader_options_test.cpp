@@ -19,6 +19,8 @@
 #include <utility>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "app/program.hpp"
 #include "checkpoint.hpp"
 #include "esfleet/core/ros_map_format.hpp"
@@ -106,6 +108,48 @@ TEST(LeaderOptions, MapNeedsAValue) {
   std::optional<int> code;
   EXPECT_EQ(options_error({"--map"}, nullptr, &code), "parse error");
   EXPECT_EQ(code, app::kExitUsage);
+}
+
+TEST(LeaderOptions, ResumeTakesTheCheckpointsParametersAndRefusesOthersGiven) {
+  const fs::path out =
+      fs::path(::testing::TempDir()) / ("esfleet-resume-params-" + std::to_string(::getpid()));
+  fs::remove_all(out);
+  test::scratch_paths().add(out);
+  // The run that wrote the checkpoint: two parameters changed; written by an "older esfleet"
+  // that lacked one parameter and had one this version does not know.
+  LeaderOptions first;
+  ASSERT_EQ(options_error({"--log", "x.clf", "--free-margin", "0.1", "--seed", "3"}, &first), "");
+  nlohmann::json saved = nlohmann::json::object();
+  for (const auto& [name, value] : first.parameters) saved[name] = value;
+  saved.erase("loop_final_icp_min_normal_cos");
+  saved["old_knob"] = "3";
+  Slam slam(first.slam);
+  CheckpointSchedule(out.string(), 0, {"map", 7, 0, "log x.clf", saved.dump()}).save(slam, "t");
+
+  LeaderOptions o;
+  ASSERT_EQ(options_error({"--log", "x.clf", "--resume", out.string()}, &o), "");
+  EXPECT_EQ(o.slam.update.free_margin, 0.1);
+  EXPECT_EQ(o.slam.seed, 3u);
+  EXPECT_TRUE(contains(o.parameter_changes, "free_margin = 0.1"));
+  ASSERT_EQ(o.resume_notes.size(), 2u);
+  EXPECT_TRUE(contains(o.resume_notes[0],
+                       "loop_final_icp_min_normal_cos = 0.94: the checkpoint "
+                       "does not have it"));
+  EXPECT_TRUE(contains(o.resume_notes[1],
+                       "old_knob = 3: the checkpoint has it but this esfleet "
+                       "does not; ignored"));
+  // Flags that agree with the checkpoint are fine; others are named.
+  EXPECT_EQ(options_error({"--log", "x.clf", "--resume", out.string(), "--seed", "3"}), "");
+  const std::string differ = options_error(
+      {"--log", "x.clf", "--resume", out.string(), "--free-margin", "0.15", "--mu", "100"});
+  EXPECT_TRUE(contains(differ,
+                       "the SLAM parameters given differ from the checkpoint's: "
+                       "free_margin (checkpoint 0.1, given 0.15) (leave them out"))
+      << differ;
+  EXPECT_TRUE(contains(options_error({"--log", "x.clf", "--resume", out.string(), "--paper"}),
+                       "prediction (checkpoint constant-velocity, given previous)"));
+  EXPECT_TRUE(contains(options_error({"--log", "x.clf", "--resume", (out / "none").string()}),
+                       "manifest.json: missing"));
 }
 
 // --- the maps --map serves -----------------------------------------------------------------
