@@ -274,22 +274,24 @@ Resumed read_checkpoint(const std::string& checkpoint_dir, Slam& slam) {
   return r;
 }
 
-std::vector<std::pair<std::string, std::string>> checkpoint_parameters(const std::string& dir) {
+CheckpointSettings checkpoint_settings(const std::string& dir) {
   const fs::path manifest_path = fs::path(dir) / "checkpoint" / "manifest.json";
   if (!fs::exists(manifest_path)) {
     throw std::runtime_error(manifest_path.string() + ": missing (no checkpoint in " + dir + ")");
   }
-  const auto params = field<nlohmann::json>(read_json(manifest_path), "parameters", manifest_path);
+  const nlohmann::json m = read_json(manifest_path);
+  CheckpointSettings out;
+  out.input = field<std::string>(m, "input", manifest_path);
+  const auto params = field<nlohmann::json>(m, "parameters", manifest_path);
   if (!params.is_object()) {
     throw std::runtime_error(manifest_path.string() + ": field 'parameters' is not an object");
   }
-  std::vector<std::pair<std::string, std::string>> out;
   for (const auto& [name, value] : params.items()) {
     if (!value.is_string()) {
       throw std::runtime_error(manifest_path.string() + ": field 'parameters': '" + name +
                                "' is not a string");
     }
-    out.emplace_back(name, value.get<std::string>());
+    out.parameters.emplace_back(name, value.get<std::string>());
   }
   return out;
 }

@@ -119,9 +119,13 @@ Resumed read_checkpoint(const std::string& checkpoint_dir, Slam& slam);
 /// Throws std::runtime_error naming the file and field on a missing or corrupt checkpoint.
 Resumed load_checkpoint(const std::string& dir, Slam& slam);
 
-/// The SLAM parameters recorded in DIR/checkpoint/manifest.json, name -> value as text (what
-/// --resume starts from). Throws std::runtime_error naming the file and field.
-std::vector<std::pair<std::string, std::string>> checkpoint_parameters(const std::string& dir);
+/// What --resume starts from, as recorded in DIR/checkpoint/manifest.json.
+struct CheckpointSettings {
+  std::vector<std::pair<std::string, std::string>> parameters;  ///< SLAM parameter -> value text
+  std::string input;  ///< CheckpointInfo::input: "log PATH", "scan-topic ID" or "ros-scan TOPIC"
+};
+/// Throws std::runtime_error naming the file and field.
+CheckpointSettings checkpoint_settings(const std::string& dir);
 
 /// A tile's counters copied for the checkpoint writer thread: 16 bits each when every counter
 /// of the tile fits (nearly always), else 32. After a loop closure re-writes many key scans

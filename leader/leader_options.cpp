@@ -105,8 +105,8 @@ void add_leader_flags(CLI::App& cli, LeaderOptions& o, app::ParamTable& params) 
   cli.add_option("--resume", o.resume_dir,
                  "continue the map checkpointed in DIR/checkpoint (same map id and epoch; the SLAM "
                  "parameters are the checkpoint's, and a SLAM flag, --config or --paper given "
-                 "with it must agree with them; --log continues after the last checkpointed "
-                 "scan)");
+                 "with it must agree with them; without --log, --scan-topic or --ros-scan the "
+                 "checkpoint's input; a log continues after the last checkpointed scan)");
   cli.add_flag("--paper", o.paper,
                "start from the paper's exact configuration (previous-pose prediction, no "
                "extensions) before applying --config and the flags below");
@@ -159,17 +159,37 @@ void add_leader_flags(CLI::App& cli, LeaderOptions& o, app::ParamTable& params) 
 
 namespace {
 
-/// --resume: the checkpoint's parameters for every one not given now (--paper, --config or a
+/// --resume: the checkpoint's input when none is given, and its parameters for every one not
+/// given now (--paper, --config or a
 /// flag); a given one must agree with the checkpoint. A parameter the checkpoint lacks (written
 /// by an older esfleet) keeps this run's value, one it has that this version lacks is ignored;
 /// both are noted.
-void adopt_checkpoint_parameters(LeaderOptions& o, app::ParamTable& params) {
-  std::vector<std::pair<std::string, std::string>> saved;
+void adopt_checkpoint(LeaderOptions& o, app::ParamTable& params) {
+  CheckpointSettings settings;
   try {
-    saved = checkpoint_parameters(o.resume_dir);
+    settings = checkpoint_settings(o.resume_dir);
   } catch (const std::runtime_error& e) {
     throw app::UsageError("--resume " + o.resume_dir + ": " + e.what());
   }
+  // No input given: the checkpoint's.
+  if (o.log.empty() && o.scan_robot.empty() && o.ros.scan_topic.empty()) {
+    const std::string& in = settings.input;
+    const auto rest = [&](const std::string& prefix) {
+      return in.rfind(prefix, 0) == 0 && in.size() > prefix.size() ? in.substr(prefix.size())
+                                                                   : std::string();
+    };
+    if (const std::string p = rest("log "); !p.empty()) {
+      o.log = p;
+    } else if (const std::string id = rest("scan-topic "); !id.empty()) {
+      o.scan_robot = id;
+    } else if (const std::string topic = rest("ros-scan "); !topic.empty()) {
+      o.ros.scan_topic = topic;
+    } else {
+      throw app::UsageError("--resume " + o.resume_dir + ": the checkpoint's field 'input' is '" +
+                            in + "'; give --log, --scan-topic or --ros-scan");
+    }
+  }
+  const std::vector<std::pair<std::string, std::string>>& saved = settings.parameters;
   std::set<std::string> by_paper;
   if (o.paper) {
     for (const auto& [name, value] : params.changed()) by_paper.insert(name);
@@ -215,7 +235,7 @@ void adopt_checkpoint_parameters(LeaderOptions& o, app::ParamTable& params) {
 void finish_leader_options(LeaderOptions& o, app::ParamTable& params) {
   if (o.paper) o.slam = SlamConfig::paper();
   params.apply();
-  if (!o.resume_dir.empty() && !o.serving_map()) adopt_checkpoint_parameters(o, params);
+  if (!o.resume_dir.empty() && !o.serving_map()) adopt_checkpoint(o, params);
   o.parameters = params.values();
   o.parameter_changes = params.describe_changes();
   o.validate();

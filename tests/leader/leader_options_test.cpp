@@ -125,9 +125,18 @@ TEST(LeaderOptions, ResumeTakesTheCheckpointsParametersAndRefusesOthersGiven) {
   saved["old_knob"] = "3";
   Slam slam(first.slam);
   CheckpointSchedule(out.string(), 0, {"map", 7, 0, "log x.clf", saved.dump()}).save(slam, "t");
+  // A checkpoint whose input names none: resuming it needs one given.
+  const fs::path odd = out / "odd";
+  CheckpointSchedule(odd.string(), 0, {"map", 7, 0, "tape 3", saved.dump()}).save(slam, "t");
+  EXPECT_TRUE(contains(options_error({"--resume", odd.string()}),
+                       "the checkpoint's field 'input' is 'tape 3'; give --log, --scan-topic or "
+                       "--ros-scan"));
 
+  // No input given: the checkpoint's.
   LeaderOptions o;
-  ASSERT_EQ(options_error({"--log", "x.clf", "--resume", out.string()}, &o), "");
+  ASSERT_EQ(options_error({"--resume", out.string()}, &o), "");
+  EXPECT_EQ(o.log, "x.clf");
+  EXPECT_EQ(o.input_name(), "log x.clf");
   EXPECT_EQ(o.slam.update.free_margin, 0.1);
   EXPECT_EQ(o.slam.seed, 3u);
   EXPECT_TRUE(contains(o.parameter_changes, "free_margin = 0.1"));
@@ -150,6 +159,10 @@ TEST(LeaderOptions, ResumeTakesTheCheckpointsParametersAndRefusesOthersGiven) {
                        "prediction (checkpoint constant-velocity, given previous)"));
   EXPECT_TRUE(contains(options_error({"--log", "x.clf", "--resume", (out / "none").string()}),
                        "manifest.json: missing"));
+  // An input given with it wins (the leader warns when it is not the checkpoint's).
+  LeaderOptions topic;
+  ASSERT_EQ(options_error({"--scan-topic", "r7", "--resume", out.string()}, &topic), "");
+  EXPECT_EQ(topic.input_name(), "scan-topic r7");
 }
 
 // --- the maps --map serves -----------------------------------------------------------------
