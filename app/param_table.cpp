@@ -155,7 +155,7 @@ void ParamTable::bind(CLI::App& app, const std::string& group) {
     p.option = app.add_option("--" + dashed(p.name), p.cli_value, p.help)
                    ->type_name(p.type)
                    ->default_str(p.get())
-                   ->group(group);
+                   ->group(p.unused.empty() ? group : std::string());  // "": hidden
   }
 }
 
@@ -163,6 +163,7 @@ void ParamTable::apply() {
   if (!config_path_.empty()) load_yaml(config_path_);
   for (Param& p : params_) {
     if (p.option == nullptr || p.option->count() == 0) continue;
+    if (!p.unused.empty()) throw UsageError("--" + dashed(p.name) + ": " + p.unused);
     try {
       p.set(p.cli_value);
     } catch (const std::invalid_argument& e) {
@@ -224,6 +225,13 @@ std::string ParamTable::describe_changes() const {
     out += (i == 0 ? " " : ", ") + c[i].first + " = " + c[i].second;
   }
   return out;
+}
+
+void ParamTable::not_used(const std::function<bool(const std::string&)>& which,
+                          const std::string& why) {
+  for (Param& p : params_) {
+    if (which(p.name)) p.unused = why;
+  }
 }
 
 bool ParamTable::given(const std::string& name) const {

@@ -49,6 +49,10 @@ class ParamTable {
         help);
   }
 
+  /// Parameters this program takes but does not use (a config file shared with another
+  /// program may hold them): hidden from --help; a flag for one is a UsageError saying `why`;
+  /// in the --config file they are accepted. Call before bind().
+  void not_used(const std::function<bool(const std::string&)>& which, const std::string& why);
   /// Registers `--name-with-dashes` for every parameter (in option group `group`) and
   /// `--config FILE`.
   void bind(CLI::App& app, const std::string& group = "Parameters");
@@ -80,6 +84,7 @@ class ParamTable {
     std::string cli_value;
     std::string at_bind;  ///< the value at bind()
     bool given = false;   ///< set by --config or a flag
+    std::string unused;   ///< not_used(): why a flag for it is refused ("" = used)
     CLI::Option* option = nullptr;
   };
   /// `type` is what --help shows for the value (FLOAT, INT, on|off, ...).

@@ -1,5 +1,8 @@
 #include "app/slam_params.hpp"
 
+#include <set>
+#include <string>
+
 namespace esfleet::app {
 
 void add_slam_params(ParamTable& t, SlamConfig* s, CarmenReaderOptions* r) {
@@ -187,6 +190,34 @@ void add_slam_params(ParamTable& t, SlamConfig* s, CarmenReaderOptions* r) {
               "readings at or above this are no-returns, metres (the value a log writes for "
               "'no echo': 81.9 in the bundled logs, 81.83 or 50 in others; ROBOTLASER1 lines "
               "also use their own maximum_range)");
+}
+
+bool is_tracking_param(const std::string& name) {
+  static const std::set<std::string> kTracking = {"mu",
+                                                  "iterations",
+                                                  "alpha_xy",
+                                                  "alpha_theta",
+                                                  "beta",
+                                                  "penalty",
+                                                  "odometry",
+                                                  "prediction",
+                                                  "min_range",
+                                                  "max_range",
+                                                  "init_sigma_xy",
+                                                  "init_sigma_theta",
+                                                  "seed",
+                                                  "motion_hypotheses",
+                                                  "turn_hypotheses",
+                                                  "interpolation",
+                                                  "search_point_spacing",
+                                                  "refine",
+                                                  "prior_sigma_xy",
+                                                  "prior_sigma_theta",
+                                                  "prior_on_stop",
+                                                  "motion_hold",
+                                                  "motion_hold_ratio",
+                                                  "no_return_range"};
+  return kTracking.count(name) != 0;
 }
 
 }  // namespace esfleet::app

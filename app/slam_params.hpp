@@ -12,4 +12,9 @@ namespace esfleet::app {
 /// the reader's beam convention. The pointers must outlive the table.
 void add_slam_params(ParamTable& table, SlamConfig* slam, CarmenReaderOptions* reader);
 
+/// The names add_slam_params registers that a pose tracker uses (the ES, the prediction, the
+/// motion prior, the reader's beams): the others build the map (its layout, the update, key
+/// scans, loop closure, recovery), which a follower does not do.
+bool is_tracking_param(const std::string& name);
+
 }  // namespace esfleet::app

@@ -126,8 +126,17 @@ void add_follower_flags(CLI::App& cli, FollowerOptions& o, app::ParamTable& para
                 "test aid: add dx,dy,dtheta_deg to the pose sent with each scan (a robot whose "
                 "pose is wrong)");
   app::add_slam_params(params, &o.slam, &o.reader);
+  // The map is the leader's: its layout, update, key scans and loop closure are not ours; the
+  // hold along the motion is --localise-motion-hold.
+  params.not_used(
+      [](const std::string& name) {
+        return !app::is_tracking_param(name) || name == "motion_hold";
+      },
+      "a parameter of the leader's mapping, which esfleet-follower does not use (in a --config "
+      "file it is accepted and ignored; the follower's hold along the motion is "
+      "--localise-motion-hold)");
   app::add_localise_params(params, &o.localiser);
-  params.bind(cli, "Localisation parameters (tracking uses the SLAM's)");
+  params.bind(cli, "Tracking and localisation parameters");
 }
 
 void finish_follower_options(FollowerOptions& o, app::ParamTable& params) {

@@ -4,7 +4,10 @@
 #include "follower_options.hpp"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
+#include <filesystem>
+#include <fstream>
 #include <numbers>
 #include <optional>
 #include <stdexcept>
@@ -85,6 +88,33 @@ TEST(FollowerOptions, PoseOffsetParsing) {
   EXPECT_THROW(parse_pose_offset(""), std::invalid_argument);
   EXPECT_THROW(parse_pose_offset("1,2,3,4"), std::invalid_argument);
   EXPECT_THROW(parse_pose_offset("1,,3"), std::invalid_argument);
+}
+
+TEST(FollowerOptions, TheLeadersMappingParametersAreRefusedAsFlagsAndIgnoredInAConfigFile) {
+  // Tracking parameters reach the localiser.
+  FollowerOptions o;
+  ASSERT_EQ(options_error({"--log", "x.clf", "--prior-sigma-xy", "0.2", "--localise-motion-hold",
+                           "0.05", "--seed", "9"},
+                          &o),
+            "");
+  EXPECT_EQ(o.localiser.tracking.prior_sigma_xy, 0.2);
+  EXPECT_EQ(o.localiser.seed, 9u);
+  // Mapping parameters, and the SLAM's hold (the follower has its own), are not the follower's.
+  for (const char* flag : {"--loop-closure", "--free-margin", "--recovery", "--motion-hold"}) {
+    const std::string e = options_error({"--log", "x.clf", flag, "0"});
+    EXPECT_TRUE(contains(e, std::string(flag) + ": a parameter of the leader's mapping, which "
+                                                "esfleet-follower does not use"))
+        << e;
+  }
+  // A config file shared with the leader may hold them.
+  const std::filesystem::path yaml = std::filesystem::path(::testing::TempDir()) /
+                                     ("follower-shared-" + std::to_string(::getpid()) + ".yaml");
+  std::ofstream(yaml) << "loop_closure: off\nprior_sigma_xy: 0.25\n";
+  FollowerOptions shared;
+  const std::string e = options_error({"--log", "x.clf", "--config", yaml.string()}, &shared);
+  std::filesystem::remove(yaml);
+  EXPECT_EQ(e, "");
+  EXPECT_EQ(shared.localiser.tracking.prior_sigma_xy, 0.25);
 }
 
 }  // namespace
