@@ -274,11 +274,19 @@ Resumed read_checkpoint(const std::string& checkpoint_dir, Slam& slam) {
   return r;
 }
 
-CheckpointSettings checkpoint_settings(const std::string& dir) {
+namespace {
+/// DIR/checkpoint/manifest.json; throws std::runtime_error when there is none.
+fs::path existing_manifest(const std::string& dir) {
   const fs::path manifest_path = fs::path(dir) / "checkpoint" / "manifest.json";
   if (!fs::exists(manifest_path)) {
     throw std::runtime_error(manifest_path.string() + ": missing (no checkpoint in " + dir + ")");
   }
+  return manifest_path;
+}
+}  // namespace
+
+CheckpointSettings checkpoint_settings(const std::string& dir) {
+  const fs::path manifest_path = existing_manifest(dir);
   const nlohmann::json m = read_json(manifest_path);
   CheckpointSettings out;
   out.input = field<std::string>(m, "input", manifest_path);
@@ -291,17 +299,14 @@ CheckpointSettings checkpoint_settings(const std::string& dir) {
       throw std::runtime_error(manifest_path.string() + ": field 'parameters': '" + name +
                                "' is not a string");
     }
-    out.parameters.emplace_back(name, value.get<std::string>());
+    out.parameters.emplace(name, value.get<std::string>());
   }
   return out;
 }
 
 Resumed load_checkpoint(const std::string& dir, Slam& slam) {
+  existing_manifest(dir);
   const fs::path base = fs::path(dir) / "checkpoint";
-  const fs::path manifest_path = base / "manifest.json";
-  if (!fs::exists(manifest_path)) {
-    throw std::runtime_error(manifest_path.string() + ": missing (no checkpoint in " + dir + ")");
-  }
   Resumed r = read_checkpoint(base.string(), slam);
   const fs::path journal_path = base / "journal.json";
   // Supersede everything published before: every tile (and every tile followers may hold that

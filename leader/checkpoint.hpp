@@ -121,7 +121,7 @@ Resumed load_checkpoint(const std::string& dir, Slam& slam);
 
 /// What --resume starts from, as recorded in DIR/checkpoint/manifest.json.
 struct CheckpointSettings {
-  std::vector<std::pair<std::string, std::string>> parameters;  ///< SLAM parameter -> value text
+  std::map<std::string, std::string> parameters;  ///< SLAM parameter -> value text
   std::string input;  ///< CheckpointInfo::input: "log PATH", "scan-topic ID" or "ros-scan TOPIC"
 };
 /// Throws std::runtime_error naming the file and field.

@@ -29,20 +29,6 @@ nlohmann::json params_json(const LeaderOptions& o) {
   return j;
 }
 
-/// Parameters whose values differ between a checkpoint and this run, as "name (a -> b)".
-std::string changed_params(const std::string& saved_json, const nlohmann::json& now) {
-  const nlohmann::json saved = nlohmann::json::parse(saved_json);
-  std::string out;
-  for (const auto& [name, value] : now.items()) {
-    // One the checkpoint lacks was noted when the options took the checkpoint's parameters.
-    if (!saved.contains(name)) continue;
-    const std::string was = saved[name].dump();
-    if (was != value.dump())
-      out += (out.empty() ? "" : ", ") + name + " (" + was + " -> " + value.dump() + ")";
-  }
-  return out;
-}
-
 /// stats.json "dds" "publisher": the hand-over from the mapping thread to the publisher thread
 /// (leader/map_publisher.hpp). handover_s is what publishing cost the mapping thread; encode_s
 /// and write_s what the publisher thread spent instead.
@@ -129,11 +115,8 @@ LeaderApp::~LeaderApp() = default;  // members in reverse: checkpoints, source, 
 
 void LeaderApp::resume_checkpoint() {
   app::setup_step("--resume " + o_.resume_dir, [&] {
+    // The parameters are the checkpoint's already (finish_leader_options).
     resumed_ = load_checkpoint(o_.resume_dir, slam_);
-    const std::string changed = changed_params(resumed_->info.params_json, params_json(o_));
-    if (!changed.empty()) {
-      throw std::invalid_argument("the SLAM parameters differ from the checkpoint's: " + changed);
-    }
     const CheckpointInfo& info = resumed_->info;
     if (o_.map_id && *o_.map_id != info.map_id) {
       throw std::invalid_argument("--map-id " + *o_.map_id + " but the checkpoint's map is " +

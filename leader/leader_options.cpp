@@ -1,7 +1,7 @@
 #include "leader_options.hpp"
 
-#include <algorithm>
 #include <cmath>
+#include <map>
 #include <set>
 #include <stdexcept>
 
@@ -160,10 +160,9 @@ void add_leader_flags(CLI::App& cli, LeaderOptions& o, app::ParamTable& params) 
 namespace {
 
 /// --resume: the checkpoint's input when none is given, and its parameters for every one not
-/// given now (--paper, --config or a
-/// flag); a given one must agree with the checkpoint. A parameter the checkpoint lacks (written
-/// by an older esfleet) keeps this run's value, one it has that this version lacks is ignored;
-/// both are noted.
+/// given now (--paper, --config or a flag); a given one must agree with the checkpoint. A parameter
+/// the checkpoint lacks (written by an older esfleet) keeps this run's value, one it has that this
+/// version lacks is ignored; both are noted.
 void adopt_checkpoint(LeaderOptions& o, app::ParamTable& params) {
   CheckpointSettings settings;
   try {
@@ -189,7 +188,7 @@ void adopt_checkpoint(LeaderOptions& o, app::ParamTable& params) {
                             in + "'; give --log, --scan-topic or --ros-scan");
     }
   }
-  const std::vector<std::pair<std::string, std::string>>& saved = settings.parameters;
+  const std::map<std::string, std::string>& saved = settings.parameters;
   std::set<std::string> by_paper;
   if (o.paper) {
     for (const auto& [name, value] : params.changed()) by_paper.insert(name);
@@ -198,8 +197,7 @@ void adopt_checkpoint(LeaderOptions& o, app::ParamTable& params) {
   std::string conflicts;
   for (const auto& [name, now] : params.values()) {
     known.insert(name);
-    const auto it =
-        std::find_if(saved.begin(), saved.end(), [&](const auto& s) { return s.first == name; });
+    const auto it = saved.find(name);
     if (it == saved.end()) {
       o.resume_notes.push_back(name + " = " + now +
                                ": the checkpoint does not have it (written by an older esfleet)");
