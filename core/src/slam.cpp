@@ -143,6 +143,7 @@ bool Slam::settle_one() {
   last_odometry_ = spec.last_odometry;
   last_inserted_ = spec.last_inserted;
   path_length_ = spec.path_length;
+  last_jumped_ = spec.last_jumped;
   graph_ = std::move(graph);
   ++loop_closures_;
   last_loop_ = LoopEvent{k, match->anchor, match->pose.relative_to(spec.search.estimate),
@@ -173,6 +174,15 @@ SlamStep Slam::process_scan(const LaserScan& scan) {
     MotionState motion;
     motion.last = trajectory_.back();
     if (trajectory_.size() >= 2) motion.previous = trajectory_[trajectory_.size() - 2];
+    if (last_jumped_ && trajectory_.size() >= 3) {
+      // The last pose was a recovery jump: a correction of the estimate, not a motion. The
+      // prediction continues the step before it (as the trajectory has it now, after any loop
+      // closure since).
+      const TimedPose& a = trajectory_[trajectory_.size() - 3];
+      const TimedPose& b = trajectory_[trajectory_.size() - 2];
+      motion.previous = TimedPose{motion.last.stamp - (b.stamp - a.stamp),
+                                  motion.last.pose.compose(a.pose.relative_to(b.pose))};
+    }
     motion.odometry = last_odometry_;
     const auto t_search = Clock::now();
     const TrackResult tracked = track_scan(config_.tracking, es_, rng_, map_, points, scan, motion);
@@ -181,6 +191,10 @@ SlamStep Slam::process_scan(const LaserScan& scan) {
     step.fitness = tracked.result.value;
     if (config_.recovery.enabled) recover(scan, points, motion, tracked.predicted, step);
     step.search_ms = ms_since(t_search);
+    // A recovered pose farther from the prediction than the motion prior's width is a jump.
+    last_jumped_ = step.recovered &&
+                   std::hypot(step.pose.x - step.predicted.x, step.pose.y - step.predicted.y) >
+                       config_.tracking.prior_sigma_xy;
     if (last_inserted_ && (config_.insert_min_travel > 0.0 || config_.insert_min_turn_deg > 0.0)) {
       const Pose2 d = step.pose.relative_to(*last_inserted_);
       insert = std::hypot(d.x, d.y) >= config_.insert_min_travel ||
@@ -305,6 +319,7 @@ bool Slam::add_key_scan(const ScanPoints& points, const Pose2& pose, double stam
                      last_odometry_,
                      last_inserted_,
                      path_length_,
+                     last_jumped_,
                      graph_.node_count(),
                      graph_.edges().size(),
                      {}};
@@ -766,6 +781,7 @@ SlamState Slam::state() const {
   s.last_loop = last_loop_;
   if (pending_loop_) s.pending_loop_key = pending_loop_->key;
   s.contributors = contributors_;
+  s.last_jumped = last_jumped_;
   return s;
 }
 
@@ -803,6 +819,7 @@ void Slam::restore(SlamState s) {
   last_odometry_ = s.last_odometry;
   last_inserted_ = s.last_inserted;
   path_length_ = s.path_length;
+  last_jumped_ = s.last_jumped;
   keys_ = std::move(s.keys);
   contributors_ = std::move(s.contributors);
   // The contributors' chains start afresh: their next scans are tied to the graph by anchors.

@@ -213,8 +213,10 @@ void decode_map_snapshot(std::string_view bytes, GridMap& map) {
 
 namespace {
 
-/// Opens the trailing section of contributed key scans (never a key index).
+/// Open the trailing sections (never a key index): contributed key scans; "the last pose was a
+/// recovery jump" (the tag alone).
 constexpr std::uint64_t kContributorsTag = 0xC0417B1D00000001ULL;
+constexpr std::uint64_t kLastJumpedTag = 0xC0417B1D00000002ULL;
 
 void put_slam_state(const SlamState& s, Out& out) {
   // Sized up front: growing by doubling would hold up to three times the key scans' bytes.
@@ -281,6 +283,7 @@ void put_slam_state(const SlamState& s, Out& out) {
     }
     for (const KeyScan& k : s.keys) out.put(k.contributor);
   }
+  if (s.last_jumped) out.put<std::uint64_t>(kLastJumpedTag);
 }
 
 }  // namespace
@@ -369,13 +372,13 @@ SlamState decode_slam_state(std::string_view bytes) {
   }
   std::optional<std::uint64_t> next;
   if (!in.at_end()) next = in.get<std::uint64_t>("pending_loop_key");
-  if (next && *next != kContributorsTag) {
+  if (next && *next != kContributorsTag && *next != kLastJumpedTag) {
     s.pending_loop_key = static_cast<std::size_t>(*next);
     next.reset();
-    if (!in.at_end()) next = in.get<std::uint64_t>("contributors.tag");
+    if (!in.at_end()) next = in.get<std::uint64_t>("section.tag");
   }
-  if (next) {
-    if (*next != kContributorsTag) in.fail("contributors.tag", "unknown section");
+  if (next && *next == kContributorsTag) {
+    next.reset();
     s.contributors.resize(in.count("contributors", 8));
     for (std::size_t i = 0; i < s.contributors.size(); ++i) {
       const std::vector<std::uint8_t> name = in.bytes("contributors[" + std::to_string(i) + "]");
@@ -384,7 +387,14 @@ SlamState decode_slam_state(std::string_view bytes) {
     for (std::size_t i = 0; i < s.keys.size(); ++i) {
       s.keys[i].contributor = in.get<std::uint32_t>("keys[" + std::to_string(i) + "].contributor");
     }
+    if (!in.at_end()) next = in.get<std::uint64_t>("section.tag");
   }
+  if (next && *next == kLastJumpedTag) {
+    next.reset();
+    s.last_jumped = true;
+    if (!in.at_end()) next = in.get<std::uint64_t>("section.tag");
+  }
+  if (next) in.fail("section.tag", "unknown section");
   in.done();
   return s;
 }

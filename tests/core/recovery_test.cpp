@@ -151,5 +151,33 @@ TEST(Recovery, SlamHoldsOnSparseScansWithIt) {
   EXPECT_LT(slam_error(true, 1), 0.1) << "seed 3";
 }
 
+TEST(Recovery, AJumpIsNotTakenForTheRobotsMotion) {
+  // Laser only, steady 0.4 m per scan (0.5 s) along the room, then one scan 0.5 m farther than
+  // that (a slip, or a scan stamped late): the recovery search puts it right. That jump is a
+  // correction of the estimate; the scan after it must be predicted with the motion before it
+  // (0.4 m), not with the jump (0.9 m).
+  const auto world = asymmetric_room();
+  SlamConfig config;
+  config.recovery.enabled = true;
+  config.seed = 5;
+  Slam slam(config);
+  std::vector<double> xs{1.0, 1.4, 1.8, 2.2, 2.6, 3.5, 3.9};
+  const std::size_t jump = 5;
+  for (std::size_t i = 0; i < xs.size(); ++i) {
+    const Pose2 truth{xs[i] - xs[0], 0.0, 0.0};  // in the SLAM's frame (the first scan's)
+    const SlamStep step =
+        slam.process(make_scan(world, {xs[i], 4.0, 0.0}, 0.5 * static_cast<double>(i)));
+    if (i == jump) {
+      EXPECT_TRUE(step.recovered) << "seed 5";
+      EXPECT_NEAR(step.pose.x, truth.x, 0.05) << "seed 5";
+    }
+    if (i == jump + 1) {
+      // The step before the jump, continued from the jumped pose: 3.5 + 0.4 m.
+      EXPECT_NEAR(step.predicted.x, truth.x, 0.1) << "seed 5";
+      EXPECT_NEAR(step.pose.x, truth.x, 0.05) << "seed 5";
+    }
+  }
+}
+
 }  // namespace
 }  // namespace esfleet

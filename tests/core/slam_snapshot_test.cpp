@@ -152,6 +152,29 @@ TEST(SlamSnapshot, StreamedStateEqualsTheEncodedOne) {
   EXPECT_GT(pieces, 1u) << encoded.size() << " bytes in one piece";
 }
 
+TEST(SlamSnapshot, TheTrailingSectionsRoundTripInAnyCombination) {
+  const std::vector<LaserScan> scans = csail_scans(60);
+  Slam slam(test_config());
+  for (const LaserScan& s : scans) slam.process(s);
+  const SlamState base = slam.state();
+  ASSERT_GT(base.keys.size(), 2u);
+  // Every combination of: a pending loop search, contributed key scans, a last recovery jump.
+  for (int mask = 0; mask < 8; ++mask) {
+    SlamState s = base;
+    if (mask & 1) s.pending_loop_key = 1;
+    if (mask & 2) {
+      s.contributors = {"robot-1"};
+      s.keys.back().contributor = 1;
+    }
+    s.last_jumped = (mask & 4) != 0;
+    const SlamState back = decode_slam_state(encode_slam_state(s));
+    EXPECT_EQ(back.pending_loop_key, s.pending_loop_key) << mask;
+    EXPECT_EQ(back.contributors, s.contributors) << mask;
+    EXPECT_EQ(back.keys.back().contributor, s.keys.back().contributor) << mask;
+    EXPECT_EQ(back.last_jumped, s.last_jumped) << mask;
+  }
+}
+
 TEST(SlamSnapshot, DamageIsReportedWithTheField) {
   const std::vector<LaserScan> scans = csail_scans(60);
   Slam slam(test_config());

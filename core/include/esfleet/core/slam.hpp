@@ -115,6 +115,8 @@ struct SlamState {
   std::optional<std::size_t> pending_loop_key;
   /// The robots that contributed key scans (KeyScan::contributor k is contributors[k - 1]).
   std::vector<std::string> contributors;
+  /// The last scan's pose was a recovery jump (Slam::process_scan).
+  bool last_jumped = false;
 };
 
 /// What Slam::finish did.
@@ -220,6 +222,8 @@ class Slam {
   std::optional<Pose2> last_odometry_;
   std::optional<Pose2> last_inserted_;
   double path_length_ = 0.0;
+  /// The last pose was a recovery jump: the next prediction continues the motion before it.
+  bool last_jumped_ = false;
 
   std::vector<KeyScan> keys_;
   /// The leader's own last key scan (contributed ones come in between).
@@ -262,6 +266,7 @@ class Slam {
     std::optional<Pose2> last_odometry;
     std::optional<Pose2> last_inserted;
     double path_length = 0.0;
+    bool last_jumped = false;
     /// The graph at the key scan is the first this many nodes and edges of graph_: while
     /// searches are speculative the graph only grows at its end (a closure, a contribution and
     /// the final pass come after settling), so no copy is kept.
