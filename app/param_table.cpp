@@ -218,12 +218,19 @@ std::vector<std::pair<std::string, std::string>> ParamTable::changed() const {
 }
 
 std::string ParamTable::describe_changes() const {
-  const auto c = changed();
-  if (c.empty()) return "all defaults";
-  std::string out = std::to_string(c.size()) + " changed:";
-  for (std::size_t i = 0; i < c.size(); ++i) {
-    out += (i == 0 ? " " : ", ") + c[i].first + " = " + c[i].second;
+  // Parameters this program does not use (not_used()) but a shared --config file set are listed
+  // apart: they changed nothing here.
+  std::string used, unused;
+  std::size_t n_used = 0;
+  for (const Param& p : params_) {
+    const std::string now = p.get();
+    if (now == p.at_bind) continue;
+    std::string& into = p.unused.empty() ? used : unused;
+    into += (into.empty() ? " " : ", ") + p.name + " = " + now;
+    n_used += p.unused.empty() ? 1 : 0;
   }
+  std::string out = n_used == 0 ? "all defaults" : std::to_string(n_used) + " changed:" + used;
+  if (!unused.empty()) out += "; ignored (not used by this program):" + unused;
   return out;
 }
 

@@ -66,7 +66,9 @@ class ParamTable {
   /// The parameters whose value differs from the one they had at bind() (the in-class
   /// defaults), name -> current value.
   std::vector<std::pair<std::string, std::string>> changed() const;
-  /// One log line's worth: "all defaults", or "N changed: a = 1, b = on".
+  /// One log line's worth: "all defaults", or "N changed: a = 1, b = on"; parameters set
+  /// (by a --config file) that this program does not use (not_used()) follow as
+  /// "; ignored (not used by this program): c = off".
   std::string describe_changes() const;
   /// After apply(): whether `name` was set by a flag on the command line or by the --config file.
   bool given(const std::string& name) const;

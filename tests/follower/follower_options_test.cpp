@@ -115,6 +115,10 @@ TEST(FollowerOptions, TheLeadersMappingParametersAreRefusedAsFlagsAndIgnoredInAC
   std::filesystem::remove(yaml);
   EXPECT_EQ(e, "");
   EXPECT_EQ(shared.localiser.tracking.prior_sigma_xy, 0.25);
+  // The log line lists only what changed the follower; the rest as ignored.
+  EXPECT_EQ(shared.parameter_changes,
+            "1 changed: prior_sigma_xy = 0.25; ignored (not used by this program): "
+            "loop_closure = off");
 }
 
 }  // namespace
