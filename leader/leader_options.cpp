@@ -163,7 +163,10 @@ namespace {
 /// given now (--paper, --config or a flag); a given one must agree with the checkpoint. A parameter
 /// the checkpoint lacks (written by an older esfleet) keeps this run's value, one it has that this
 /// version lacks is ignored; both are noted.
-void adopt_checkpoint(LeaderOptions& o, app::ParamTable& params) {
+/// Returns the parameters it set from the checkpoint (name, value).
+std::vector<std::pair<std::string, std::string>> adopt_checkpoint(LeaderOptions& o,
+                                                                  app::ParamTable& params) {
+  std::vector<std::pair<std::string, std::string>> adopted;
   CheckpointSettings settings;
   try {
     settings = checkpoint_settings(o.resume_dir);
@@ -209,6 +212,7 @@ void adopt_checkpoint(LeaderOptions& o, app::ParamTable& params) {
       }
       try {
         params.set(name, it->second);
+        adopted.emplace_back(name, it->second);
       } catch (const std::invalid_argument& e) {
         throw app::UsageError("--resume " + o.resume_dir + ": checkpoint parameter '" + name +
                               "': " + e.what());
@@ -226,6 +230,7 @@ void adopt_checkpoint(LeaderOptions& o, app::ParamTable& params) {
                           ": the SLAM parameters given differ from the checkpoint's: " + conflicts +
                           " (leave them out to continue with the checkpoint's)");
   }
+  return adopted;
 }
 
 }  // namespace
@@ -233,10 +238,23 @@ void adopt_checkpoint(LeaderOptions& o, app::ParamTable& params) {
 void finish_leader_options(LeaderOptions& o, app::ParamTable& params) {
   if (o.paper) o.slam = SlamConfig::paper();
   params.apply();
-  if (!o.resume_dir.empty() && !o.serving_map()) adopt_checkpoint(o, params);
+  std::vector<std::pair<std::string, std::string>> adopted;
+  if (!o.resume_dir.empty() && !o.serving_map()) adopted = adopt_checkpoint(o, params);
   o.parameters = params.values();
   o.parameter_changes = params.describe_changes();
-  o.validate();
+  try {
+    o.validate();
+  } catch (const std::invalid_argument& e) {
+    // A value the checkpoint gave (a hand-edited manifest): say where it came from.
+    const std::string what = e.what();
+    for (const auto& [name, value] : adopted) {
+      if (what.find(name) != std::string::npos) {
+        throw app::UsageError("--resume " + o.resume_dir + ": checkpoint parameter '" + name +
+                              "' = " + value + ": " + what);
+      }
+    }
+    throw;
+  }
 }
 
 }  // namespace esfleet::leader

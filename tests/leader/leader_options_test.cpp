@@ -159,6 +159,17 @@ TEST(LeaderOptions, ResumeTakesTheCheckpointsParametersAndRefusesOthersGiven) {
                        "prediction (checkpoint constant-velocity, given previous)"));
   EXPECT_TRUE(contains(options_error({"--log", "x.clf", "--resume", (out / "none").string()}),
                        "manifest.json: missing"));
+  // A value the parameter's parser takes but the SLAM refuses (a hand-edited manifest) is named
+  // as the checkpoint's.
+  nlohmann::json edited = saved;
+  edited["prior_sigma_xy"] = "-1";
+  const fs::path bad = out / "edited";
+  CheckpointSchedule(bad.string(), 0, {"map", 7, 0, "log x.clf", edited.dump()}).save(slam, "t");
+  const std::string refused = options_error({"--resume", bad.string()});
+  EXPECT_TRUE(contains(refused, "--resume " + bad.string() +
+                                    ": checkpoint parameter 'prior_sigma_xy' = -1: "
+                                    "slam.prior_sigma_xy"))
+      << refused;
   // An input given with it wins (the leader warns when it is not the checkpoint's).
   LeaderOptions topic;
   ASSERT_EQ(options_error({"--scan-topic", "r7", "--resume", out.string()}, &topic), "");
