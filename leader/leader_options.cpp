@@ -1,5 +1,6 @@
 #include "leader_options.hpp"
 
+#include <cctype>
 #include <cmath>
 #include <map>
 #include <set>
@@ -233,6 +234,17 @@ std::vector<std::pair<std::string, std::string>> adopt_checkpoint(LeaderOptions&
   return adopted;
 }
 
+/// Whether `text` has `word` as a whole word (a parameter name, not part of a longer one or
+/// of "must").
+bool names_word(const std::string& text, const std::string& word) {
+  auto part = [](char c) { return std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '_'; };
+  for (std::size_t at = text.find(word); at != std::string::npos; at = text.find(word, at + 1)) {
+    const std::size_t end = at + word.size();
+    if ((at == 0 || !part(text[at - 1])) && (end == text.size() || !part(text[end]))) return true;
+  }
+  return false;
+}
+
 }  // namespace
 
 void finish_leader_options(LeaderOptions& o, app::ParamTable& params) {
@@ -248,7 +260,7 @@ void finish_leader_options(LeaderOptions& o, app::ParamTable& params) {
     // A value the checkpoint gave (a hand-edited manifest): say where it came from.
     const std::string what = e.what();
     for (const auto& [name, value] : adopted) {
-      if (what.find(name) != std::string::npos) {
+      if (names_word(what, name)) {
         throw app::UsageError("--resume " + o.resume_dir + ": checkpoint parameter '" + name +
                               "' = " + value + ": " + what);
       }

@@ -163,6 +163,7 @@ TEST(LeaderOptions, ResumeTakesTheCheckpointsParametersAndRefusesOthersGiven) {
   // as the checkpoint's.
   nlohmann::json edited = saved;
   edited["prior_sigma_xy"] = "-1";
+  edited["mu"] = "50";  // also taken from the checkpoint, and "mu" is in "must": not blamed
   const fs::path bad = out / "edited";
   CheckpointSchedule(bad.string(), 0, {"map", 7, 0, "log x.clf", edited.dump()}).save(slam, "t");
   const std::string refused = options_error({"--resume", bad.string()});
