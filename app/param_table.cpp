@@ -222,12 +222,11 @@ std::string ParamTable::describe_changes() const {
   // apart: they changed nothing here.
   std::string used, unused;
   std::size_t n_used = 0;
-  for (const Param& p : params_) {
-    const std::string now = p.get();
-    if (now == p.at_bind) continue;
-    std::string& into = p.unused.empty() ? used : unused;
-    into += (into.empty() ? " " : ", ") + p.name + " = " + now;
-    n_used += p.unused.empty() ? 1 : 0;
+  for (const auto& [name, now] : changed()) {
+    const bool is_used = find(name)->unused.empty();
+    std::string& into = is_used ? used : unused;
+    into += (into.empty() ? " " : ", ") + name + " = " + now;
+    n_used += is_used ? 1 : 0;
   }
   std::string out = n_used == 0 ? "all defaults" : std::to_string(n_used) + " changed:" + used;
   if (!unused.empty()) out += "; ignored (not used by this program):" + unused;

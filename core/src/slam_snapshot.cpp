@@ -370,15 +370,16 @@ SlamState decode_slam_state(std::string_view bytes) {
     e.ambiguity = in.get<double>("last_loop.ambiguity");
     s.last_loop = e;
   }
-  std::optional<std::uint64_t> next;
-  if (!in.at_end()) next = in.get<std::uint64_t>("pending_loop_key");
+  // What follows the fixed part: each read is a section's tag (or the untagged pending key).
+  auto read = [&in](const char* field) {
+    return in.at_end() ? std::optional<std::uint64_t>() : in.get<std::uint64_t>(field);
+  };
+  std::optional<std::uint64_t> next = read("pending_loop_key");
   if (next && *next != kContributorsTag && *next != kLastJumpedTag) {
     s.pending_loop_key = static_cast<std::size_t>(*next);
-    next.reset();
-    if (!in.at_end()) next = in.get<std::uint64_t>("section.tag");
+    next = read("section.tag");
   }
   if (next && *next == kContributorsTag) {
-    next.reset();
     s.contributors.resize(in.count("contributors", 8));
     for (std::size_t i = 0; i < s.contributors.size(); ++i) {
       const std::vector<std::uint8_t> name = in.bytes("contributors[" + std::to_string(i) + "]");
@@ -387,12 +388,11 @@ SlamState decode_slam_state(std::string_view bytes) {
     for (std::size_t i = 0; i < s.keys.size(); ++i) {
       s.keys[i].contributor = in.get<std::uint32_t>("keys[" + std::to_string(i) + "].contributor");
     }
-    if (!in.at_end()) next = in.get<std::uint64_t>("section.tag");
+    next = read("section.tag");
   }
   if (next && *next == kLastJumpedTag) {
-    next.reset();
     s.last_jumped = true;
-    if (!in.at_end()) next = in.get<std::uint64_t>("section.tag");
+    next = read("section.tag");
   }
   if (next) in.fail("section.tag", "unknown section");
   in.done();
