@@ -142,8 +142,9 @@ void add_slam_params(ParamTable& t, SlamConfig* s, CarmenReaderOptions* r) {
                "pose graph: standard deviation of a loop-closure edge, metres");
   t.add_double("loop_sigma_theta", &s->loop.sigma_theta_deg, "... degrees");
   t.add_switch("recovery", &s->recovery.enabled,
-               "a weak match triggers a wide correlative search (coarse to fine, the ES to "
-               "finish), and a scan that still agrees poorly is not written into the map");
+               "a weak match or a large predicted motion triggers a wide correlative search "
+               "(coarse to fine, the ES to finish), and a scan that still agrees poorly is not "
+               "written into the map");
   t.add_double("recovery_window_xy", &s->recovery.window_xy, "recovery search window +-, metres");
   t.add_double("recovery_window_theta", &s->recovery.window_theta_deg,
                "recovery search window +-, degrees");
@@ -175,6 +176,11 @@ void add_slam_params(ParamTable& t, SlamConfig* s, CarmenReaderOptions* r) {
                "(0 = never)");
   t.add_double("recovery_wide_motion_theta", &s->recovery.wide_motion_theta_deg,
                "... or turns this much, degrees (0 = never)");
+  t.add_double("recovery_settled_agreement", &s->recovery.settled_agreement,
+               "a large motion does not start the recovery search when the tracked pose "
+               "agrees at least this much with the map (0 = it always does) ...");
+  t.add_double("recovery_settled_known", &s->recovery.settled_known,
+               "... with at least this share of its end points on observed cells");
   t.add_double("recovery_insert_min_agreement", &s->recovery.insert_min_agreement,
                "a scan agreeing less than this with the map is not written into it (0 = off)");
   t.add_double("key_sigma_xy", &s->key_sigma_xy,

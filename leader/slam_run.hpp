@@ -24,7 +24,7 @@ struct SlamRunStats {
   /// Scans whose match put fewer than half of the end points that fell on observed cells on
   /// occupied ones (FitnessValue::agreement() < 0.5): the search is likely stuck or lost.
   std::size_t weak_matches = 0;
-  std::size_t recoveries_tried = 0;  ///< weak matches the recovery search ran for
+  std::size_t recoveries_tried = 0;  ///< scans the recovery search ran for
   std::size_t recovered = 0;         ///< ... whose pose it replaced
   std::size_t withheld = 0;          ///< scans due for insertion kept out of the map
   std::vector<double> agreement;     ///< per scan (after the first)

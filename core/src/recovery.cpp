@@ -1,6 +1,7 @@
 #include "esfleet/core/recovery.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <numbers>
@@ -21,6 +22,8 @@ void RecoveryConfig::validate() const {
   check(gain_per_window >= 0.0 && gain_per_window_fair >= 0.0,
         "gain_per_window and gain_per_window_fair must be >= 0");
   check(in01(insert_min_agreement), "insert_min_agreement must be in [0, 1]");
+  check(in01(settled_agreement) && in01(settled_known),
+        "settled_agreement and settled_known must be in [0, 1]");
   check(wide_motion_xy >= 0.0 && wide_motion_theta_deg >= 0.0,
         "wide_motion_xy and wide_motion_theta must be >= 0 (0 = off)");
   check(window_scale_xy > 0.0 && window_scale_theta_deg > 0.0,
@@ -54,39 +57,31 @@ inline std::int32_t floor_div(std::int32_t a, std::int32_t b) {
 }
 
 /// The map's cells as scores over a window (occupied: the map value, free: -free_penalty,
-/// unknown: 0), and the same max-pooled into blocks of `factor` x `factor` cells aligned at
-/// multiples of `factor`.
+/// unknown: 0), read from the map's tiles, and the same max-pooled into blocks of `factor` x
+/// `factor` cells aligned at multiples of `factor` (a copy: the coarse stage reads it most).
 class LocalWindow {
  public:
   LocalWindow(const GridMap& map, std::int32_t x_min, std::int32_t y_min, std::int32_t x_max,
               std::int32_t y_max, std::int32_t factor, float free_penalty)
-      : factor_(factor) {
+      : lookup_(map.lookup(0)),
+        free_penalty_(free_penalty),
+        shift_(std::countr_zero(static_cast<std::uint32_t>(factor))) {
     bx0_ = floor_div(x_min, factor);
     by0_ = floor_div(y_min, factor);
     bw_ = floor_div(x_max, factor) - bx0_ + 1;
     bh_ = floor_div(y_max, factor) - by0_ + 1;
     x0_ = bx0_ * factor;
     y0_ = by0_ * factor;
-    w_ = bw_ * factor;
-    h_ = bh_ * factor;
-    fine_.assign(static_cast<std::size_t>(w_) * static_cast<std::size_t>(h_) + 1, 0.0f);
     coarse_.assign(static_cast<std::size_t>(bw_) * static_cast<std::size_t>(bh_) + 1,
                    -free_penalty);
     coarse_.back() = 0.0f;  // outside the window: unknown
-    const GridMap::Lookup lookup = map.lookup(0);
-    const GridMap::Lookup::Addressing a = lookup.addressing();
-    for (std::int32_t y = 0; y < h_; ++y) {
-      float* row = fine_.data() + static_cast<std::size_t>(y) * w_;
+    const std::int32_t w = bw_ * factor, h = bh_ * factor;
+    for (std::int32_t y = 0; y < h; ++y) {
       float* brow = coarse_.data() + static_cast<std::size_t>(y / factor) * bw_;
-      for (std::int32_t x = 0; x < w_; ++x) {
-        const std::int32_t cx = x0_ + x, cy = y0_ + y;
-        // Occupied: the map value; free: -free_penalty (an end point in free space speaks
-        // against the pose); unknown: 0.
-        const float score = lookup.tile(a.slot(cx, cy))[a.offset(cx, cy)];
-        const float v = score > 0.0f ? score : (score == 0.0f ? -free_penalty : 0.0f);
-        row[x] = v;
+      for (std::int32_t x = 0; x < w; ++x) {
+        const float score = lookup_.score(x0_ + x, y0_ + y);
         float& b = brow[x / factor];
-        b = std::max(b, v);
+        b = std::max(b, value(score));
         known_ |= score > 0.0f;
       }
     }
@@ -94,21 +89,28 @@ class LocalWindow {
   bool any_hit() const { return known_; }
   /// Pooled value of the block holding level-0 cell (cx, cy); 0 outside.
   float coarse(std::int32_t cx, std::int32_t cy) const {
-    const std::int32_t bx = (cx - x0_) / factor_, by = (cy - y0_) / factor_;
+    // A shift, not a division: the factor is a power of two, and a cell left of the window
+    // (a negative difference) is outside either way.
+    const std::int32_t bx = (cx - x0_) >> shift_, by = (cy - y0_) >> shift_;
     const bool inside = (cx >= x0_) & (cy >= y0_) & (bx < bw_) & (by < bh_);
     return coarse_[inside ? static_cast<std::size_t>(by) * bw_ + bx : coarse_.size() - 1];
   }
-  float fine(std::int32_t cx, std::int32_t cy) const {
-    const std::int32_t x = cx - x0_, y = cy - y0_;
-    const bool inside = (x >= 0) & (y >= 0) & (x < w_) & (y < h_);
-    return fine_[inside ? static_cast<std::size_t>(y) * w_ + x : fine_.size() - 1];
-  }
+  /// The value of level-0 cell (cx, cy) (the caller keeps to the window).
+  float fine(std::int32_t cx, std::int32_t cy) const { return value(lookup_.score(cx, cy)); }
 
  private:
-  std::int32_t factor_;
-  std::int32_t x0_ = 0, y0_ = 0, w_ = 0, h_ = 0;
+  /// Occupied: the map value; free: -free_penalty (an end point in free space speaks against
+  /// the pose); unknown: 0.
+  float value(float score) const {
+    return score > 0.0f ? score : (score == 0.0f ? -free_penalty_ : 0.0f);
+  }
+
+  GridMap::Lookup lookup_;
+  float free_penalty_;
+  int shift_;  ///< log2 of the pooling factor
+  std::int32_t x0_ = 0, y0_ = 0;
   std::int32_t bx0_ = 0, by0_ = 0, bw_ = 0, bh_ = 0;
-  std::vector<float> fine_, coarse_;
+  std::vector<float> coarse_;
   bool known_ = false;
 };
 

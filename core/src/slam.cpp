@@ -246,6 +246,11 @@ void Slam::recover(const LaserScan& scan, const ScanPoints& points, const Motion
        (rc.wide_motion_theta_deg > 0.0 &&
         std::abs(motion_step.theta) >= deg_to_rad(rc.wide_motion_theta_deg)));
   if (!weak && !wide) return;
+  // A large motion the tracking already matched well (an in-place turn in a mapped room).
+  if (!weak && rc.settled_agreement > 0.0 && step.fitness.agreement() >= rc.settled_agreement &&
+      step.fitness.known_share() >= rc.settled_known) {
+    return;
+  }
   // The window scales with the largest recent motion (1 m or 45 degrees per scan = all of it,
   // at least window_min_scale): a robot creeping 10 cm per scan cannot be 1.5 m off. No motion
   // seen yet (the second scan): all of it.

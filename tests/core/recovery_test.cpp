@@ -179,5 +179,33 @@ TEST(Recovery, AJumpIsNotTakenForTheRobotsMotion) {
   }
 }
 
+TEST(Recovery, AnInPlaceTurnTheTrackingMatchedIsNotSearched) {
+  // Laser only, turning in place 20 degrees per scan (a large predicted turn) and back over
+  // the part of the room already seen: the tracked poses agree with the map, so the wide
+  // search does not run for them; with the rule off (settled_agreement 0) it does.
+  const auto world = asymmetric_room();
+  const std::vector<double> headings{0, 20, 40, 60, 80, 60, 40, 20, 0};
+  auto searched = [&](double settled_agreement) {
+    SlamConfig config;
+    config.recovery.settled_agreement = settled_agreement;
+    config.seed = 3;
+    Slam slam(config);
+    int tried = 0;
+    for (std::size_t i = 0; i < headings.size(); ++i) {
+      const SlamStep step = slam.process(
+          make_scan(world, {6.0, 4.0, deg_to_rad(headings[i])}, 0.5 * static_cast<double>(i)));
+      // The turn back: the prediction carries on the last turn; from the second scan back on
+      // it turns the right way, and the scans see only cells seen before.
+      if (i >= 6) {
+        EXPECT_NEAR(rad_to_deg(normalize_angle(step.pose.theta)), headings[i], 1.0) << "seed 3";
+        tried += step.recovery_tried ? 1 : 0;
+      }
+    }
+    return tried;
+  };
+  EXPECT_EQ(searched(SlamConfig{}.recovery.settled_agreement), 0);
+  EXPECT_EQ(searched(0.0), 3);
+}
+
 }  // namespace
 }  // namespace esfleet

@@ -29,9 +29,9 @@
 namespace esfleet {
 
 struct RecoveryConfig {
-  /// Off by default for now: on the dense benchmark logs it changes single seeds' results
-  /// chaotically (docs/slam.md); on for key-scan logs, dropped scans and fast robots.
-  bool enabled = false;
+  /// On by default: key-scan logs, dropped scans and fast robots need it; on the dense
+  /// benchmark logs it rarely runs (docs/slam.md item 7). SlamConfig::paper() turns it off.
+  bool enabled = true;
   /// A tracked pose is weak when, with at least `min_known` of its end points on observed
   /// cells, fewer than `weak_agreement` of those fall on cells with hits.
   double weak_agreement = 0.7;
@@ -46,6 +46,13 @@ struct RecoveryConfig {
   /// settle on a wrong pose that agrees well with the little the map knows ahead. 0 = never.
   double wide_motion_xy = 0.4;          ///< metres
   double wide_motion_theta_deg = 15.0;  ///< degrees
+  /// ... unless the tracked pose has settled: at least `settled_agreement` of its end points on
+  /// observed cells fall on cells with hits, and at least `settled_known` of them are on
+  /// observed cells (an in-place turn in a mapped room). Of the searches a large motion alone
+  /// started, none that this skips replaced a pose on the sparse logs, and it skips most of
+  /// those on the dense ones (docs/slam.md). settled_agreement 0 = never skip.
+  double settled_agreement = 0.93;
+  double settled_known = 0.9;
   double window_xy = 1.5;               ///< search +- this around the prediction, metres
   double window_theta_deg = 90.0;       ///< ... and +- this, degrees
   /// Slam: the window is scaled by the last inter-scan motion, step / window_scale_xy +

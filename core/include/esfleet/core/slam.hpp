@@ -75,7 +75,7 @@ struct SlamStep {
   FitnessValue fitness;         ///< fitness terms at `pose` (before this scan's map update)
   bool inserted = false;        ///< whether the scan was written into the map
   bool loop_closed = false;     ///< a loop closure was accepted and the graph re-optimised
-  bool recovery_tried = false;  ///< the tracked pose was weak: the recovery search ran
+  bool recovery_tried = false;  ///< the recovery search ran (a weak match or a large motion)
   bool recovered = false;       ///< ... and its pose replaced the tracked one
   bool withheld = false;        ///< due for insertion but too weak a match: not written
   MapUpdateStats update;
