@@ -53,8 +53,8 @@ struct RecoveryConfig {
   /// those on the dense ones (docs/slam.md). settled_agreement 0 = never skip.
   double settled_agreement = 0.93;
   double settled_known = 0.9;
-  double window_xy = 1.5;               ///< search +- this around the prediction, metres
-  double window_theta_deg = 90.0;       ///< ... and +- this, degrees
+  double window_xy = 1.5;          ///< search +- this around the prediction, metres
+  double window_theta_deg = 90.0;  ///< ... and +- this, degrees
   /// Slam: the window is scaled by the last inter-scan motion, step / window_scale_xy +
   /// turn / window_scale_theta, clamped to [window_min_scale, 1].
   double window_scale_xy = 1.0;          ///< metres
