@@ -22,8 +22,8 @@ void RecoveryConfig::validate() const {
   check(gain_per_window >= 0.0 && gain_per_window_fair >= 0.0,
         "gain_per_window and gain_per_window_fair must be >= 0");
   check(in01(insert_min_agreement), "insert_min_agreement must be in [0, 1]");
-  check(in01(settled_agreement) && in01(settled_known),
-        "settled_agreement and settled_known must be in [0, 1]");
+  check(in01(settled_agreement), "settled_agreement must be in [0, 1]");
+  check(in01(settled_known), "settled_known must be in [0, 1]");
   check(wide_motion_xy >= 0.0 && wide_motion_theta_deg >= 0.0,
         "wide_motion_xy and wide_motion_theta must be >= 0 (0 = off)");
   check(window_scale_xy > 0.0 && window_scale_theta_deg > 0.0,

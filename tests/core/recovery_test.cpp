@@ -110,6 +110,16 @@ TEST(Recovery, ValidateNamesTheField) {
   RecoveryConfig lost;
   lost.lost_view_known = 1.5;
   EXPECT_THROW(lost.validate(), std::invalid_argument);
+  RecoveryConfig settled;
+  settled.settled_known = -0.1;
+  try {
+    settled.validate();
+    FAIL() << "accepted settled_known -0.1";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("slam.recovery_settled_known"), std::string::npos);
+  }
+  // On by default (key-scan logs, dropped scans); the paper's configuration has none of it.
+  EXPECT_TRUE(SlamConfig{}.recovery.enabled);
   EXPECT_FALSE(SlamConfig::paper().recovery.enabled);
 }
 
