@@ -7,6 +7,7 @@
 #include <thread>
 #include <utility>
 
+#include "esfleet/core/relations.hpp"
 #include "esfleet/dds/from_msg.hpp"
 
 namespace esfleet::app {
@@ -35,7 +36,10 @@ std::vector<LaserScan> read_log(const std::string& path, const CarmenReaderOptio
         "--odometry on makes the result meaningless. Run it laser-only.",
         path);
   }
-  if (const StampOrder order = stamp_order(scans); order.not_after > 0) {
+  std::vector<double> stamps;
+  stamps.reserve(scans.size());
+  for (const LaserScan& s : scans) stamps.push_back(s.stamp);
+  if (const StampOrder order = stamp_order(stamps); order.not_after > 0) {
     spdlog::warn(
         "{}: {} of {} scans are not stamped after the scan before them (the first: scan {}, "
         "stamp {:.6f}); rounded stamps? The motion prediction takes one step per scan there, "
@@ -43,17 +47,6 @@ std::vector<LaserScan> read_log(const std::string& path, const CarmenReaderOptio
         path, order.not_after, scans.size(), order.first + 1, scans[order.first].stamp);
   }
   return scans;
-}
-
-StampOrder stamp_order(const std::vector<LaserScan>& scans) {
-  StampOrder out;
-  for (std::size_t i = 1; i < scans.size(); ++i) {
-    if (!(scans[i].stamp > scans[i - 1].stamp)) {
-      if (out.not_after == 0) out.first = i;
-      ++out.not_after;
-    }
-  }
-  return out;
 }
 
 LogScanSource::LogScanSource(std::vector<LaserScan> scans, double rate)

@@ -47,21 +47,11 @@ class ScanSource {
 
 /// The scans of a log in file order: the first max_scans if > 0, fewer if `stop` is set while
 /// reading. Warns when odometry is used with a GMapping-corrected log, and when scans are not
-/// stamped after the scan before them (stamp_order). Throws LogError naming
+/// stamped after the scan before them (esfleet::stamp_order). Throws LogError naming
 /// file and line, also for a log without scans.
 std::vector<LaserScan> read_log(const std::string& path, const CarmenReaderOptions& options,
                                 std::size_t max_scans, bool use_odometry,
                                 const std::atomic<bool>& stop);
-
-/// Scans stamped no later than the scan before them: a log whose stamps were printed rounded
-/// (the CSAIL key-scan log's have 6 significant digits, so all 406 share one stamp). The
-/// motion prediction then takes one step per scan, and pacing at the log's rate cannot space
-/// them.
-struct StampOrder {
-  std::size_t not_after = 0;  ///< scans stamped at or before the scan before them
-  std::size_t first = 0;      ///< index of the first such scan (when not_after > 0)
-};
-StampOrder stamp_order(const std::vector<LaserScan>& scans);
 
 /// The scans of a log read beforehand, each handed out once (moved out, its memory then the
 /// consumer's). With rate > 0, scan i is due (stamp_i - stamp_0) / rate seconds after the first

@@ -138,6 +138,26 @@ std::vector<SplitPart> score_split(const std::vector<esfleet::TimedPose>& trajec
           {"revisits", ">=", esfleet::evaluate_relations(trajectory, revisits, metric)}};
 }
 
+/// Poses are matched by time: when more than a tenth of `poses` are not stamped after the pose
+/// before them (rounded stamps: a key-scan log printed with 6 digits), throws naming `what`
+/// and `remedy`; fewer only warn.
+void check_stamps(const std::vector<esfleet::TimedPose>& poses, const std::string& what,
+                  const std::string& remedy) {
+  std::vector<double> stamps;
+  stamps.reserve(poses.size());
+  for (const esfleet::TimedPose& p : poses) stamps.push_back(p.stamp);
+  const esfleet::StampOrder order = esfleet::stamp_order(stamps);
+  if (order.not_after == 0) return;
+  const std::string text = what + ": " + std::to_string(order.not_after) + " of " +
+                           std::to_string(poses.size()) +
+                           " poses are not stamped after the pose before them (the first: pose " +
+                           std::to_string(order.first + 1) + ")";
+  if (order.not_after * 10 > poses.size()) {
+    throw std::runtime_error(text + "; rounded stamps? Poses are matched by time" + remedy);
+  }
+  spdlog::warn("{}", text);
+}
+
 /// The poses of --reference in the trajectory's time base: a key-scan log takes the stamps of
 /// the --reference-raw scans it was taken from. Throws std::runtime_error naming the file.
 std::vector<esfleet::TimedPose> read_reference(const EvalOptions& o) {
@@ -157,6 +177,8 @@ std::vector<esfleet::TimedPose> read_reference(const EvalOptions& o) {
     }
     reference.push_back({match.empty() ? scans[i].stamp : raw[match[i]].stamp, *scans[i].odometry});
   }
+  check_stamps(reference, o.reference,
+               match.empty() ? "; a key-scan log takes its stamps from --reference-raw" : "");
   return reference;
 }
 
@@ -218,6 +240,7 @@ int evaluate(const EvalOptions& o) {
   esfleet::AbsoluteErrorResult a;
   try {
     trajectory = esfleet::read_trajectory(o.trajectory);
+    check_stamps(trajectory, o.trajectory, ", so this trajectory cannot be scored");
     if (!o.relations.empty()) {
       const auto relations = esfleet::read_relations(o.relations);
       r = esfleet::evaluate_relations(trajectory, relations, o.metric);

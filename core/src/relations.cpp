@@ -201,6 +201,17 @@ DerivedRelationsResult evaluate_derived_relations(const std::vector<Pose2>& refe
   return result;
 }
 
+StampOrder stamp_order(const std::vector<double>& stamps) {
+  StampOrder out;
+  for (std::size_t i = 1; i < stamps.size(); ++i) {
+    if (!(stamps[i] > stamps[i - 1])) {
+      if (out.not_after == 0) out.first = i;
+      ++out.not_after;
+    }
+  }
+  return out;
+}
+
 AbsoluteErrorResult evaluate_absolute(const std::vector<TimedPose>& trajectory,
                                       const std::vector<TimedPose>& reference, double tolerance) {
   if (!std::isfinite(tolerance) || tolerance < 0.0) {

@@ -2,7 +2,8 @@
 # esfleet-eval --reference: the absolute error against a corrected log's poses. A trajectory
 # that is the corrected path in another frame scores zero; with one pose 0.5 m off, that pose
 # carries the error. A key-scan log takes its stamps from the raw log (--reference-raw): without
-# it nothing matches (exit 1). Bad usage exits 2 naming the flag or file.
+# it its rounded stamps cannot be matched by time (exit 2, naming the file and the flag), nor
+# can a trajectory whose stamps repeat. Bad usage exits 2 naming the flag or file.
 # Usage: eval_absolute_test.sh BIN_DIR
 set -euo pipefail
 bin="$1"
@@ -47,13 +48,23 @@ assert abs(b["scale"] - 9 / 8) < 1e-3, b
 print("ok")
 PY
 
-# The key-scan log's own (rounded) stamps match nothing: exit 1, and the warning says why.
+# The key-scan log's own (rounded) stamps are all equal: exit 2, and the error says why.
 set +e
 "$bin/esfleet-eval" --trajectory "$work/traj.txt" --reference "$work/keys.log" 2> "$work/err.txt"
 rc=$?
 set -e
-[ "$rc" -eq 1 ] || { echo "a key-scan log without --reference-raw exited $rc, expected 1"; exit 1; }
-grep -q -- "--reference-raw" "$work/err.txt" || { echo "the warning does not say --reference-raw"; cat "$work/err.txt"; exit 1; }
+[ "$rc" -eq 2 ] || { echo "a key-scan log without --reference-raw exited $rc, expected 2"; exit 1; }
+grep -q -- "--reference-raw" "$work/err.txt" || { echo "the error does not say --reference-raw"; cat "$work/err.txt"; exit 1; }
+grep -q -- "keys.log: 2 of 3 poses are not stamped after" "$work/err.txt" || { echo "the error does not name the file and count"; cat "$work/err.txt"; exit 1; }
+
+# A trajectory whose stamps repeat (written from a log with rounded stamps) cannot be matched.
+awk '{ $1 = "1134860000.000000"; print }' "$work/traj.txt" > "$work/same.txt"
+set +e
+"$bin/esfleet-eval" --trajectory "$work/same.txt" --reference "$work/corrected.log" 2> "$work/err.txt"
+rc=$?
+set -e
+[ "$rc" -eq 2 ] || { echo "a trajectory with one stamp exited $rc, expected 2"; exit 1; }
+grep -q -- "same.txt: 4 of 5 poses are not stamped after the pose before them" "$work/err.txt" || { echo "the error does not name the trajectory"; cat "$work/err.txt"; exit 1; }
 
 expect_usage() {  # expect_usage WHAT_TO_NAME ARGS...
   local name="$1"; shift

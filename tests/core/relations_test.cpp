@@ -565,5 +565,14 @@ TEST(EvaluateAbsolute, RejectsABadToleranceAndNonFiniteInput) {
   EXPECT_THROW(evaluate_absolute(bad, truth), std::invalid_argument);
 }
 
+TEST(StampOrder, CountsStampsNotAfterTheOneBefore) {
+  EXPECT_EQ(stamp_order({1.0, 1.1, 1.2, 5.0}).not_after, 0u);
+  const StampOrder bad = stamp_order({1.0, 2.0, 2.0, 3.0, 0.5, 4.0});
+  EXPECT_EQ(bad.not_after, 2u);  // the repeated 2.0 and the 0.5
+  EXPECT_EQ(bad.first, 2u);
+  EXPECT_EQ(stamp_order({}).not_after, 0u);
+  EXPECT_EQ(stamp_order({7.0}).not_after, 0u);
+}
+
 }  // namespace
 }  // namespace esfleet

@@ -108,6 +108,16 @@ DerivedRelationsResult evaluate_derived_relations(const std::vector<Pose2>& refe
                                                   const std::vector<Pose2>& estimate,
                                                   const std::vector<std::size_t>& gaps);
 
+/// Stamps not after the stamp before them, in the order given: a log whose stamps were printed
+/// rounded (the CSAIL key-scan log's have 6 significant digits, so all 406 share one stamp).
+/// Matching poses by time (evaluate_relations, evaluate_absolute) is then meaningless, and a
+/// SLAM predicting by time takes one step per scan.
+struct StampOrder {
+  std::size_t not_after = 0;  ///< stamps at or before the stamp before them
+  std::size_t first = 0;      ///< index of the first such stamp (when not_after > 0)
+};
+StampOrder stamp_order(const std::vector<double>& stamps);
+
 /// The absolute trajectory error against reference poses (e.g. a corrected log's): how far the
 /// estimate's map is bent or scaled as a whole, which relations between nearby moments hardly
 /// see. The estimate is first moved onto the reference by the rotation and translation that
