@@ -48,33 +48,24 @@ assert abs(b["scale"] - 9 / 8) < 1e-3, b
 print("ok")
 PY
 
-# The key-scan log's own (rounded) stamps are all equal: exit 2, and the error says why.
-set +e
-"$bin/esfleet-eval" --trajectory "$work/traj.txt" --reference "$work/keys.log" 2> "$work/err.txt"
-rc=$?
-set -e
-[ "$rc" -eq 2 ] || { echo "a key-scan log without --reference-raw exited $rc, expected 2"; exit 1; }
-grep -q -- "--reference-raw" "$work/err.txt" || { echo "the error does not say --reference-raw"; cat "$work/err.txt"; exit 1; }
-grep -q -- "keys.log: 2 of 3 poses are not stamped after" "$work/err.txt" || { echo "the error does not name the file and count"; cat "$work/err.txt"; exit 1; }
-
-# A trajectory whose stamps repeat (written from a log with rounded stamps) cannot be matched.
-awk '{ $1 = "1134860000.000000"; print }' "$work/traj.txt" > "$work/same.txt"
-set +e
-"$bin/esfleet-eval" --trajectory "$work/same.txt" --reference "$work/corrected.log" 2> "$work/err.txt"
-rc=$?
-set -e
-[ "$rc" -eq 2 ] || { echo "a trajectory with one stamp exited $rc, expected 2"; exit 1; }
-grep -q -- "same.txt: 4 of 5 poses are not stamped after the pose before them" "$work/err.txt" || { echo "the error does not name the trajectory"; cat "$work/err.txt"; exit 1; }
-
-expect_usage() {  # expect_usage WHAT_TO_NAME ARGS...
+expect_usage() {  # expect_usage WHAT_TO_NAME ARGS... (ARGS without --trajectory: traj.txt)
   local name="$1"; shift
+  local args=("$@")
+  [[ " $* " == *" --trajectory "* ]] || args=(--trajectory "$work/traj.txt" "$@")
   set +e
-  "$bin/esfleet-eval" --trajectory "$work/traj.txt" "$@" 2> "$work/err.txt"
+  "$bin/esfleet-eval" "${args[@]}" 2> "$work/err.txt"
   local rc=$?
   set -e
   [ "$rc" -eq 2 ] || { echo "$* exited $rc, expected 2"; exit 1; }
   grep -q -- "$name" "$work/err.txt" || { echo "$* : the error does not name $name"; cat "$work/err.txt"; exit 1; }
 }
+# The key-scan log's own (rounded) stamps are all equal: refused, and the error says why.
+expect_usage "keys.log: 2 of 3 poses are not stamped after" --reference "$work/keys.log"
+grep -q -- "--reference-raw" "$work/err.txt" || { echo "the error does not say --reference-raw"; cat "$work/err.txt"; exit 1; }
+# A trajectory whose stamps repeat (written from a log with rounded stamps) cannot be matched.
+awk '{ $1 = "1134860000.000000"; print }' "$work/traj.txt" > "$work/same.txt"
+expect_usage "same.txt: 4 of 5 poses are not stamped after the pose before them" \
+    --trajectory "$work/same.txt" --reference "$work/corrected.log"
 expect_usage "--reference" --reference-raw "$work/raw.log"
 expect_usage "--relations"
 expect_usage "missing.log" --reference "$work/missing.log"
