@@ -42,12 +42,15 @@ constexpr const char* kDescription =
     "how bent the whole map is, which relations between nearby moments hardly see; the best\n"
     "scale as well (> 1: the map is smaller than the reference). A key-scan log (e.g.\n"
     "csail-corrected.log.gz) takes its stamps from the raw log given as --reference-raw,\n"
-    "matched by identical ranges.\n"
+    "matched by identical ranges. A trajectory of a run on such a log (its own stamps\n"
+    "rounded) is scored with --by-index: its poses take the stamps of the reference's scans.\n"
     "\n"
     "Examples (Freiburg 079: relation stamps = log stamps + 1211.45 s):\n"
     "  esfleet-eval --trajectory fr079.traj --relations fr079.relations --time-offset 1211.45\n"
     "  esfleet-eval --trajectory fr079.traj --reference fr079-corrected.log.gz\n"
     "  esfleet-eval --trajectory csail.traj --relations mit-csail.relations \\\n"
+    "      --reference csail-corrected.log.gz --reference-raw mit-csail.clf.gz\n"
+    "  esfleet-eval --trajectory keys.traj --relations mit-csail.relations --by-index \\\n"
     "      --reference csail-corrected.log.gz --reference-raw mit-csail.clf.gz";
 
 struct EvalOptions {
@@ -56,6 +59,7 @@ struct EvalOptions {
   std::string reference;             ///< CARMEN log with corrected poses in its odometry fields
   std::string reference_raw;         ///< the raw log a key-scan --reference was taken from
   esfleet::RelationsOptions metric;  ///< time offset, tolerance, outlier thresholds
+  bool by_index = false;             ///< trajectory pose i is --reference scan i
   bool json = false;                 ///< also print the result as one JSON line
   double split_gap = 0.0;  ///< > 0: also score relations with t2 - t1 below / at least this apart
 
@@ -64,6 +68,9 @@ struct EvalOptions {
   void validate() const {
     if (relations.empty() && reference.empty()) {
       throw UsageError("give --relations, --reference or both");
+    }
+    if (by_index && reference.empty()) {
+      throw UsageError("--by-index needs --reference (the log the trajectory was made from)");
     }
     if (!reference_raw.empty() && reference.empty()) {
       throw UsageError("--reference-raw needs --reference (the key-scan log)");
@@ -91,6 +98,10 @@ void add_eval_flags(CLI::App& app, EvalOptions& o) {
   app.add_option("--reference-raw", o.reference_raw,
                  "the raw log a key-scan --reference was taken from: its scans' stamps, matched "
                  "by identical ranges");
+  app.add_flag("--by-index", o.by_index,
+               "the trajectory's poses are --reference's scans in order (a run on that log): "
+               "they take its stamps (with --reference-raw, the raw log's) instead of their own, "
+               "e.g. a run on a log whose stamps were printed rounded");
   app.add_option("--time-offset", o.metric.time_offset,
                  "seconds added to trajectory stamps to get relation stamps (fr079: 1211.45)")
       ->capture_default_str();
@@ -240,14 +251,27 @@ int evaluate(const EvalOptions& o) {
   esfleet::AbsoluteErrorResult a;
   try {
     trajectory = esfleet::read_trajectory(o.trajectory);
-    check_stamps(trajectory, o.trajectory, ", so this trajectory cannot be scored");
+    const std::vector<esfleet::TimedPose> reference =
+        o.reference.empty() ? std::vector<esfleet::TimedPose>{} : read_reference(o);
+    if (o.by_index) {
+      if (trajectory.size() != reference.size()) {
+        throw std::runtime_error("--by-index: " + o.trajectory + " has " +
+                                 std::to_string(trajectory.size()) + " poses but " + o.reference +
+                                 " has " + std::to_string(reference.size()) + " laser scans");
+      }
+      for (std::size_t i = 0; i < trajectory.size(); ++i) trajectory[i].stamp = reference[i].stamp;
+    } else {
+      check_stamps(trajectory, o.trajectory,
+                   ", so this trajectory cannot be scored (--by-index takes the stamps of the "
+                   "--reference log it was made from)");
+    }
     if (!o.relations.empty()) {
       const auto relations = esfleet::read_relations(o.relations);
       r = esfleet::evaluate_relations(trajectory, relations, o.metric);
       if (o.split_gap > 0.0) split = score_split(trajectory, relations, o.split_gap, o.metric);
     }
     if (!o.reference.empty()) {
-      a = esfleet::evaluate_absolute(trajectory, read_reference(o), o.metric.tolerance);
+      a = esfleet::evaluate_absolute(trajectory, reference, o.metric.tolerance);
     }
   } catch (const std::exception& e) {
     throw UsageError(e.what());  // bad input: "<path>:<line>: ..."

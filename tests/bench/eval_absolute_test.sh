@@ -3,7 +3,8 @@
 # that is the corrected path in another frame scores zero; with one pose 0.5 m off, that pose
 # carries the error. A key-scan log takes its stamps from the raw log (--reference-raw): without
 # it its rounded stamps cannot be matched by time (exit 2, naming the file and the flag), nor
-# can a trajectory whose stamps repeat. Bad usage exits 2 naming the flag or file.
+# can a trajectory whose stamps repeat, unless --by-index gives it the reference's stamps.
+# Bad usage exits 2 naming the flag or file.
 # Usage: eval_absolute_test.sh BIN_DIR
 set -euo pipefail
 bin="$1"
@@ -33,7 +34,14 @@ echo "FLASER 3 1.4 2.4 3.4 10 9.5 1.5708 10 9.5 1.5708 1.13486e+09 host 1.13486e
     > "$work/out1.txt"
 "$bin/esfleet-eval" --trajectory "$work/traj.txt" --reference "$work/keys.log" \
     --reference-raw "$work/raw.log" --json > "$work/out2.txt"
-cat "$work/out1.txt" "$work/out2.txt"
+# A run on the key-scan log itself: its trajectory has the log's rounded stamps, so its poses
+# take the key scans' stamps by index (the same three estimates as above).
+awk 'NR % 2 == 1 { $1 = "1134860000.000000"; print }' "$work/traj.txt" > "$work/keys-run.txt"
+"$bin/esfleet-eval" --trajectory "$work/keys-run.txt" --by-index --reference "$work/keys.log" \
+    --reference-raw "$work/raw.log" --json > "$work/out3.txt"
+cat "$work/out1.txt" "$work/out2.txt" "$work/out3.txt"
+cmp <(tail -n 1 "$work/out2.txt") <(tail -n 1 "$work/out3.txt") ||
+    { echo "--by-index scored the key-scan run differently"; exit 1; }
 python3 - "$work/out1.txt" "$work/out2.txt" <<'PY'
 import json, math, sys
 a = json.loads(open(sys.argv[1]).read().strip().splitlines()[-1])["absolute"]
@@ -66,6 +74,12 @@ grep -q -- "--reference-raw" "$work/err.txt" || { echo "the error does not say -
 awk '{ $1 = "1134860000.000000"; print }' "$work/traj.txt" > "$work/same.txt"
 expect_usage "same.txt: 4 of 5 poses are not stamped after the pose before them" \
     --trajectory "$work/same.txt" --reference "$work/corrected.log"
+expect_usage "keys-run.txt: 2 of 3 poses are not stamped after" \
+    --trajectory "$work/keys-run.txt" --reference "$work/keys.log" --reference-raw "$work/raw.log"
+grep -q -- "--by-index" "$work/err.txt" || { echo "the error does not say --by-index"; cat "$work/err.txt"; exit 1; }
+expect_usage "--by-index: .*same.txt has 5 poses but .*keys.log has 3 laser scans" \
+    --trajectory "$work/same.txt" --by-index --reference "$work/keys.log" --reference-raw "$work/raw.log"
+expect_usage "--by-index needs --reference" --relations "$work/missing.rel" --by-index
 expect_usage "--reference" --reference-raw "$work/raw.log"
 expect_usage "--relations"
 expect_usage "missing.log" --reference "$work/missing.log"
