@@ -9,8 +9,8 @@
 // constant-velocity prediction, every motion hypothesis in the initial population, a wider
 // initial spread, bilinear sub-cell fitness, a deterministic polish of the ES result, a motion
 // prior that breaks ties in corridors, inserting scans only after the robot moved, a wide
-// recovery search when the match is weak (and weak scans kept out of the map), and loop
-// closure over a pose graph of the inserted scans.
+// recovery search when the match is weak or the motion large (and weak scans kept out of the
+// map), and loop closure over a pose graph of the inserted scans.
 
 #include <cstdint>
 #include <deque>
@@ -55,8 +55,9 @@ struct SlamConfig {
   LoopClosureConfig loop;
   double key_sigma_xy = 0.02;        ///< graph edge between consecutive inserted scans, metres
   double key_sigma_theta_deg = 0.3;  ///< ... degrees
-  /// A weak match triggers a wide correlative search, and a scan that still agrees poorly with
-  /// the map is not written into it (recovery.hpp).
+  /// A weak match, or a large motion the tracking did not match well, triggers a wide
+  /// correlative search, and a scan that still agrees poorly with the map is not written into
+  /// it (recovery.hpp; on by default, off in the paper's configuration).
   RecoveryConfig recovery;
   /// Scans contributed by followers (Slam::contribute; contribution.hpp).
   ContributionConfig contribution;
