@@ -239,6 +239,9 @@ TEST(ReplayApp, RosModeWithoutOdometryOrNamespaceSendsScansOnly) {
   o.wait_timeout = 10.0;
   std::atomic<bool> stop{false};
   ReplayApp app(o, stop);
+  // The replay waits until its writer has matched the reader; a best-effort reader drops what
+  // comes before it has matched the writer in turn, which under load can be later.
+  ASSERT_TRUE(scan_reader.wait_for_matched(1, std::chrono::milliseconds(5000)));
   EXPECT_EQ(app.run(), app::kExitOk);
   ASSERT_TRUE(wait_until([&] { return scans.size() >= 2; }));
   std::this_thread::sleep_for(std::chrono::milliseconds(200));
