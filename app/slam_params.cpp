@@ -18,6 +18,14 @@ void add_slam_params(ParamTable& t, SlamConfig* s, CarmenReaderOptions* r) {
   t.add_double("free_margin", &s->update.free_margin,
                "a beam clears the cells it crosses up to this short of its end point, metres "
                "(0 = every crossed cell, the paper)");
+  t.add_double("beam_fill", &s->update.beam_fill_deg,
+               "a laser coarser than this is written into the map with end points added "
+               "between adjacent beams of one surface, down to this spacing, degrees (0 = off; "
+               "matching uses the scan's own beams; a 0.5 deg laser is unchanged; 0.5 for a "
+               "1 deg laser logged as key scans: docs/slam.md item 11)");
+  t.add_double("beam_fill_max_gap", &s->update.beam_fill_max_gap,
+               "beam fill: only between adjacent beams whose ranges differ by at most this, "
+               "metres");
   // ES (paper Eq. 9, Table 2).
   t.add_int("mu", &s->tracking.es.mu, "ES parents");
   t.add_int("iterations", &s->tracking.es.iterations, "ES iterations T per scan (one child each)");

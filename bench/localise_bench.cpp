@@ -279,8 +279,7 @@ StartResult run_start(const LocaliserConfig& config, const GridMap& map,
       const SearchStages& st = observer.last_search();
       if (step.global_search && !st.coarse.empty()) {
         // The coarse score at the reference itself, as the grid search scores its samples.
-        const ScanPoints pts =
-            prepare_scan(scans[j], config.tracking.min_range, config.tracking.max_range);
+        const ScanPoints pts = prepare_scan(scans[j], config.tracking);
         const float truth_coarse = FitnessEvaluator(map, pts, st.coarse_options).fitness(ref(j));
         r.trace += trace_search(st, ref(j), r, truth_coarse);
       }
@@ -493,7 +492,7 @@ class HalfMapReferences {
       std::lock_guard<std::mutex> lock(mutex_);
       if (cache_[i]) return *cache_[i];
     }
-    const ScanPoints pts = prepare_scan(scans_[i], tracking_.min_range, tracking_.max_range);
+    const ScanPoints pts = prepare_scan(scans_[i], tracking_);
     FitnessOptions fo;
     fo.interpolate = true;
     const FitnessEvaluator eval(leader_.half_map, pts, fo);
@@ -555,8 +554,7 @@ std::vector<std::size_t> draw_starts(const LocaliseBenchOptions& o,
     if (bc.half) {
       bool covered = true;
       for (std::size_t j = s; j < s + kCoveredScans && j < scans.size() && covered; ++j) {
-        const ScanPoints pts =
-            prepare_scan(scans[j], o.config.tracking.min_range, o.config.tracking.max_range);
+        const ScanPoints pts = prepare_scan(scans[j], o.config.tracking);
         const FitnessValue v = FitnessEvaluator(bc.map, pts).evaluate(leader.ref[j].pose);
         covered = v.n_points > 0 && 2 * v.n_known >= v.n_points;
       }
@@ -586,8 +584,7 @@ std::vector<StartResult> run_starts(const LocaliseBenchOptions& o,
     results[i] = run_start(c, bc.map, scans, bc.reference, starts[i], o.budget, !o.trace.empty(),
                            o.trace_all);
     {
-      const ScanPoints pts =
-          prepare_scan(scans[starts[i]], o.config.tracking.min_range, o.config.tracking.max_range);
+      const ScanPoints pts = prepare_scan(scans[starts[i]], o.config.tracking);
       FitnessOptions fo;
       fo.interpolate = true;
       results[i].reference_agreement =

@@ -101,8 +101,7 @@ std::size_t for_each_end_point(const OccupancyBenchOptions& o, const std::vector
                     i + 1, tp.stamp, i + 1, scan->stamp);
       throw std::runtime_error(poses_file + msg);
     }
-    const ScanPoints pts =
-        prepare_scan(*scan, o.slam.tracking.min_range, o.slam.tracking.max_range);
+    const ScanPoints pts = prepare_scan(*scan, o.slam.tracking);
     for (std::size_t k = 0; k < pts.size(); ++k) {
       const Pose2 e = tp.pose.compose({pts.x[k], pts.y[k], 0.0});
       f(i, e.x, e.y);

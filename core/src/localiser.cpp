@@ -381,8 +381,7 @@ LocaliserStep Localiser::process(const GridMap& map, const LaserScan& scan) {
     state_ = LocaliserState::kWaitingForMap;
   } else {
     if (state_ == LocaliserState::kWaitingForMap) state_ = LocaliserState::kLocalising;
-    const ScanPoints points =
-        prepare_scan(scan, config_.tracking.min_range, config_.tracking.max_range);
+    const ScanPoints points = prepare_scan(scan, config_.tracking);
     if (points.size() == 0) {
       // Nothing to match: keep the state, report the last pose.
       step.pose = state_ == LocaliserState::kTracking ? tracked_.motion.last.pose : Pose2{};

@@ -21,6 +21,24 @@ void MapUpdateConfig::validate() const {
     throw std::invalid_argument("update.free_margin must be >= 0, got " +
                                 std::to_string(free_margin));
   }
+  if (!(beam_fill_deg >= 0.0) || !std::isfinite(beam_fill_deg)) {
+    throw std::invalid_argument("update.beam_fill must be >= 0, got " +
+                                std::to_string(beam_fill_deg));
+  }
+  if (!(beam_fill_max_gap >= 0.0) || !std::isfinite(beam_fill_max_gap)) {
+    throw std::invalid_argument("update.beam_fill_max_gap must be >= 0, got " +
+                                std::to_string(beam_fill_max_gap));
+  }
+}
+
+MapPoints map_points(const LaserScan& scan, float min_range, float max_range,
+                     const MapUpdateConfig& config) {
+  const BeamFill fill{config.beam_fill_deg, config.beam_fill_max_gap};
+  MapPoints out;
+  if (beam_fill_points(scan, fill) == 0) return out;
+  out.filled = true;
+  out.points = prepare_scan(scan, min_range, max_range, fill);
+  return out;
 }
 
 namespace {

@@ -1,18 +1,40 @@
 #include "esfleet/core/scan_points.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numbers>
 
 namespace esfleet {
 
-ScanPoints prepare_scan(const LaserScan& scan, float min_range, float max_range) {
+int beam_fill_points(const LaserScan& scan, const BeamFill& fill) {
+  const double step = std::abs(static_cast<double>(scan.angle_increment));
+  const double max_step = fill.max_step_deg * std::numbers::pi / 180.0;
+  if (!(max_step > 0.0) || !(step > max_step * (1.0 + 1e-6)) || !std::isfinite(step)) return 0;
+  // A relative tolerance: 1 deg asked of a 0.5 deg laser whose increment rounds to a hair over.
+  const double n = std::ceil(step / max_step - 1e-6) - 1.0;
+  return static_cast<int>(std::clamp(n, 0.0, 64.0));
+}
+
+ScanPoints prepare_scan(const LaserScan& scan, float min_range, float max_range,
+                        const BeamFill& fill) {
   ScanPoints p;
   const std::size_t n = scan.ranges.size();
-  p.x.reserve(n);
-  p.y.reserve(n);
-  p.range.reserve(n);
+  const int added = beam_fill_points(scan, fill);
+  const std::size_t capacity = n * static_cast<std::size_t>(added + 1);
+  p.x.reserve(capacity);
+  p.y.reserve(capacity);
+  p.range.reserve(capacity);
+  auto add = [&p](float r, float a) {
+    p.x.push_back(r * std::cos(a));
+    p.y.push_back(r * std::sin(a));
+    p.range.push_back(r);
+  };
   const float limit = max_range > 0.0f ? std::min(max_range, scan.max_range) : scan.max_range;
+  bool previous_valid = false;  // beam i - 1 gave an end point
   for (std::size_t i = 0; i < n; ++i) {
+    const bool was_valid = previous_valid;
+    previous_valid = false;
     const float r = scan.ranges[i];
     if (!std::isfinite(r) || r < 0.0f) continue;
     const float a = scan.angle(i);
@@ -21,9 +43,18 @@ ScanPoints prepare_scan(const LaserScan& scan, float min_range, float max_range)
       continue;
     }
     if (r < min_range || r >= limit) continue;
-    p.x.push_back(r * std::cos(a));
-    p.y.push_back(r * std::sin(a));
-    p.range.push_back(r);
+    if (added > 0 && was_valid) {
+      const float r0 = scan.ranges[i - 1];
+      if (std::abs(r - r0) <= fill.max_gap) {
+        const float a0 = scan.angle(i - 1);
+        for (int k = 1; k <= added; ++k) {
+          const float f = static_cast<float>(k) / static_cast<float>(added + 1);
+          add(r0 + f * (r - r0), a0 + f * (a - a0));
+        }
+      }
+    }
+    add(r, a);
+    previous_valid = true;
   }
   return p;
 }

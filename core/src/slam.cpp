@@ -166,8 +166,7 @@ bool Slam::accept_loop(const LoopMatch& match, std::size_t k, PoseGraph& graph) 
 }
 
 SlamStep Slam::process_scan(const LaserScan& scan) {
-  const ScanPoints points =
-      prepare_scan(scan, config_.tracking.min_range, config_.tracking.max_range);
+  const ScanPoints points = prepare_scan(scan, config_.tracking);
   SlamStep step;
   bool insert = true;
   if (!trajectory_.empty()) {
@@ -210,10 +209,15 @@ SlamStep Slam::process_scan(const LaserScan& scan) {
     const Pose2& prev = trajectory_.back().pose;
     path_length_ += std::hypot(step.pose.x - prev.x, step.pose.y - prev.y);
   }
+  // Matched with the scan's own beams; written (and kept as a key scan) filled, if at all.
+  const MapPoints written = insert ? map_points(scan, config_.tracking.min_range,
+                                                config_.tracking.max_range, config_.update)
+                                   : MapPoints{};
   if (insert) {
     step.inserted = true;
     const auto t_update = Clock::now();
-    step.update = update_map(map_, points, step.pose, config_.update);
+    step.update =
+        update_map(map_, written.filled ? written.points : points, step.pose, config_.update);
     step.update_ms = ms_since(t_update);
     last_inserted_ = step.pose;
   }
@@ -223,7 +227,8 @@ SlamStep Slam::process_scan(const LaserScan& scan) {
     if (insert) {
       anchors_.emplace_back(keys_.size(), Pose2{});
       const auto t_loop = Clock::now();
-      step.loop_closed = add_key_scan(points, step.pose, scan.stamp);
+      step.loop_closed =
+          add_key_scan(written.filled ? written.points : points, step.pose, scan.stamp);
       step.loop_ms = ms_since(t_loop);
       if (step.loop_closed) step.pose = trajectory_.back().pose;
     } else {
@@ -620,8 +625,7 @@ ContributionResult Slam::contribute(const Contribution& c) {
   r.refined = c.pose;
   // Judged against the map as the mapping thread has it, whatever the worker is doing.
   r.loop_closed = settle();
-  const ScanPoints points =
-      prepare_scan(c.scan, config_.tracking.min_range, config_.tracking.max_range);
+  const ScanPoints points = prepare_scan(c.scan, config_.tracking);
   if (points.size() < static_cast<std::size_t>(cc.min_beams) || keys_.empty()) return r;
   const FitnessOptions options = slam_fitness_options(
       config_.tracking, config_.tracking.interpolation != Interpolation::kNone);
@@ -691,7 +695,10 @@ ContributionResult Slam::contribute(const Contribution& c) {
     return r;
   }
   r.verdict = ContributionVerdict::kAccepted;
-  update_map(map_, points, r.refined, config_.update);
+  const MapPoints written =
+      map_points(c.scan, config_.tracking.min_range, config_.tracking.max_range, config_.update);
+  const ScanPoints& inserted = written.filled ? written.points : points;
+  update_map(map_, inserted, r.refined, config_.update);
   if (!config_.loop.enabled) return r;
   // A key scan of the pose graph.
   std::size_t who = 0;
@@ -702,7 +709,7 @@ ContributionResult Slam::contribute(const Contribution& c) {
   }
   KeyScan key;
   key.stamp = c.scan.stamp;
-  key.points = std::make_shared<const ScanPoints>(points);
+  key.points = std::make_shared<const ScanPoints>(inserted);
   key.mapped_pose = r.refined;
   key.path_length = kContributedPathLength;
   key.contributor = static_cast<std::uint32_t>(who + 1);

@@ -153,6 +153,10 @@ FitnessOptions slam_fitness_options(const TrackingConfig& config, bool interpola
   return o;
 }
 
+ScanPoints prepare_scan(const LaserScan& scan, const TrackingConfig& config) {
+  return prepare_scan(scan, config.min_range, config.max_range);
+}
+
 Pose2 predict_pose(const TrackingConfig& config, const MotionState& motion, const LaserScan& scan,
                    std::vector<Pose2>* alternatives) {
   const Pose2& prev = motion.last.pose;

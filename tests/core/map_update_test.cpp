@@ -152,6 +152,54 @@ TEST(MapUpdateTest, FreeMarginLeavesTheCellsJustBeforeTheEndPoint) {
   EXPECT_THROW(bad.validate(), std::invalid_argument);
 }
 
+TEST(MapUpdateTest, ACoarseLaserIsWrittenWithItsWallsFilledIn) {
+  // A 1 deg laser 8 m from a wall (the column of 5 cm cells at x = 8.0-8.05, hit in the
+  // middle): its beams hit the wall 14 cm apart, so written as they are they leave two of
+  // every three of the wall's cells unseen; filled down to 0.5 deg, one in three.
+  const double deg = std::numbers::pi / 180.0;
+  std::vector<float> ranges;
+  for (int i = -10; i <= 10; ++i) ranges.push_back(static_cast<float>(8.025 / std::cos(i * deg)));
+  const LaserScan s = scan_of(ranges, static_cast<float>(-10 * deg), static_cast<float>(deg));
+  MapUpdateConfig config;
+  EXPECT_EQ(config.beam_fill_deg, 0.0);  // off by default
+  config.beam_fill_deg = 0.5;
+  auto wall_cells_hit = [&](const ScanPoints& points) {
+    GridMap map(GridMapConfig{.cell_size = 0.05, .tile_edge = 64});
+    update_map(map, points, Pose2{0.0, 0.0, 0.0}, config);
+    int hit = 0;
+    for (int y = -40; y < 40; ++y) hit += map.hit({160, y}) > 0;
+    return hit;
+  };
+  const MapPoints written = map_points(s, 0.0f, 0.0f, config);
+  ASSERT_TRUE(written.filled);
+  EXPECT_EQ(written.points.size(), 41u);
+  const int own = wall_cells_hit(prepare_scan(s));
+  const int filled = wall_cells_hit(written.points);
+  EXPECT_EQ(own, 21);
+  EXPECT_EQ(filled, 41);  // every 7 cm
+  // Removing the filled scan undoes it exactly (loop closure moves key scans this way).
+  GridMap map(GridMapConfig{.cell_size = 0.05, .tile_edge = 64});
+  update_map(map, written.points, Pose2{0.0, 0.0, 0.0}, config);
+  update_map(map, written.points, Pose2{0.0, 0.0, 0.0}, config, /*remove=*/true);
+  for (int y = -30; y <= 30; ++y) EXPECT_EQ(map.hit({160, y}), 0u) << y;
+  // A 0.5 deg laser, the fill off or a coarser threshold: written as it is.
+  const LaserScan fine = scan_of(ranges, 0.0f, static_cast<float>(0.5 * deg));
+  EXPECT_FALSE(map_points(fine, 0.0f, 0.0f, config).filled);
+  EXPECT_FALSE(map_points(s, 0.0f, 0.0f, MapUpdateConfig{}).filled);
+  MapUpdateConfig coarse = config;
+  coarse.beam_fill_deg = 1.0;
+  EXPECT_FALSE(map_points(s, 0.0f, 0.0f, coarse).filled);
+  // The tracking's range limits apply to the filled points too: the 9 beams within 4.5 deg of
+  // the wall's normal are under 8.05 m, and the 8 points between them.
+  EXPECT_EQ(map_points(s, 0.0f, 8.05f, config).points.size(), 17u);
+  MapUpdateConfig bad = config;
+  bad.beam_fill_deg = -0.5;
+  EXPECT_THROW(bad.validate(), std::invalid_argument);
+  bad = config;
+  bad.beam_fill_max_gap = std::nan("");
+  EXPECT_THROW(bad.validate(), std::invalid_argument);
+}
+
 TEST(MapUpdateTest, CommitBumpsVersionOfTouchedTiles) {
   GridMap map = unit_map();
   update_map(map, prepare_scan(scan_of({10.0f}, 0.0f, 0.0f)), Pose2{0.5, 0.5, 0.0});

@@ -60,6 +60,56 @@ TEST(PrepareScan, NonFiniteAndNegativeReadingsAreDropped) {
   EXPECT_TRUE(p.no_return_angles.empty());  // an infinite reading is not trusted as one
 }
 
+TEST(BeamFill, ACoarseLaserGetsPointsBetweenAdjacentBeamsOfOneSurface) {
+  const float deg = std::numbers::pi_v<float> / 180.0f;
+  // A 1 deg laser: beams 0-1 on one surface (ranges 0.1 m apart), 1-2 across an edge (0.5 m),
+  // 3 a no-return, 4 dropped (NaN), 5-6 on one surface again (0.15 m apart).
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const LaserScan s = scan_of({2.0f, 2.1f, 2.6f, 30.0f, nan, 3.0f, 3.15f}, 0.0f, deg);
+  const BeamFill fill{0.5, 0.2};
+  EXPECT_EQ(beam_fill_points(s, fill), 1);
+  const ScanPoints p = prepare_scan(s, 0.0f, 0.0f, fill);
+  // Beam order: 2.0, (2.05), 2.1, 2.6, 3.0, (3.075), 3.15; nothing next to the no-return or the
+  // dropped beam, nothing across the edge.
+  ASSERT_EQ(p.size(), 7u);
+  const std::vector<float> ranges{2.0f, 2.05f, 2.1f, 2.6f, 3.0f, 3.075f, 3.15f};
+  const std::vector<float> angles{0.0f, 0.5f, 1.0f, 2.0f, 5.0f, 5.5f, 6.0f};
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    EXPECT_NEAR(p.range[i], ranges[i], 1e-5f) << i;
+    EXPECT_NEAR(std::atan2(p.y[i], p.x[i]), angles[i] * deg, 1e-5f) << i;
+    EXPECT_NEAR(std::hypot(p.x[i], p.y[i]), ranges[i], 1e-5f) << i;
+  }
+  EXPECT_EQ(p.no_return_angles.size(), 1u);
+  // The same scan without the fill: its own five end points.
+  EXPECT_EQ(prepare_scan(s).size(), 5u);
+  // A wider gap allowed: the edge is filled too.
+  EXPECT_EQ(prepare_scan(s, 0.0f, 0.0f, BeamFill{0.5, 0.6}).size(), 8u);
+}
+
+TEST(BeamFill, AsManyPointsAsBringTheSpacingDownAndNoneForAFineLaser) {
+  const double deg = std::numbers::pi / 180.0;
+  const BeamFill fill{0.5, 0.2};
+  auto points = [&](double increment_deg) {
+    return beam_fill_points(scan_of({1.0f, 1.0f}, 0.0f, static_cast<float>(increment_deg * deg)),
+                            fill);
+  };
+  EXPECT_EQ(points(0.5), 0);   // the bundled logs' lasers: unchanged
+  EXPECT_EQ(points(0.25), 0);  // finer
+  EXPECT_EQ(points(1.0), 1);
+  EXPECT_EQ(points(2.0), 3);
+  EXPECT_EQ(points(0.6), 1);
+  EXPECT_EQ(points(-1.0), 1);  // beams ordered clockwise
+  EXPECT_EQ(beam_fill_points(scan_of({1.0f, 1.0f}, 0.0f, static_cast<float>(deg)), BeamFill{}),
+            0);  // off
+  // Two points 2 deg apart on a wall 1 m ahead, filled to 0.5 deg: three in between, evenly.
+  const ScanPoints p =
+      prepare_scan(scan_of({1.0f, 1.0f}, 0.0f, static_cast<float>(2.0 * deg)), 0.0f, 0.0f, fill);
+  ASSERT_EQ(p.size(), 5u);
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    EXPECT_NEAR(std::atan2(p.y[i], p.x[i]), 0.5 * deg * static_cast<double>(i), 1e-6) << i;
+  }
+}
+
 TEST(ThinScan, KeepsPointsAtLeastTheSpacingFromTheLastOneKept) {
   ScanPoints p;
   // A near wall sampled every 3 cm, then a jump back to a far one and a point 4 cm past it.

@@ -83,6 +83,9 @@ struct TrackingConfig {
   void validate() const;
 };
 
+/// The end points the tracking matches: prepare_scan with the config's range limits.
+ScanPoints prepare_scan(const LaserScan& scan, const TrackingConfig& config);
+
 /// What the motion prediction knows of the past.
 struct MotionState {
   TimedPose last;                     ///< the last estimate
