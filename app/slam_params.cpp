@@ -20,9 +20,8 @@ void add_slam_params(ParamTable& t, SlamConfig* s, CarmenReaderOptions* r) {
                "(0 = every crossed cell, the paper)");
   t.add_double("beam_fill", &s->update.beam_fill_deg,
                "a laser coarser than this is written into the map with end points added "
-               "between adjacent beams of one surface, down to this spacing, degrees (0 = off; "
-               "matching uses the scan's own beams; a 0.5 deg laser is unchanged; 0.5 for a "
-               "1 deg laser logged as key scans: docs/slam.md item 11)");
+               "between adjacent beams of one surface, down to this spacing, degrees (0 = off, "
+               "the paper; matching uses the scan's own beams; a 0.5 deg laser is unchanged)");
   t.add_double("beam_fill_max_gap", &s->update.beam_fill_max_gap,
                "beam fill: only between adjacent beams whose ranges differ by at most this, "
                "metres");

@@ -102,7 +102,8 @@ std::vector<GeneraliseLog> load_logs(const GeneraliseOptions& o) {
 RunResult run_one(const GeneraliseLog& log, const RunSpec& spec, const GeneraliseOptions& o) {
   RunResult r;
   const std::vector<std::size_t> kept = subsample_indices(log.scans.size(), spec.k, o.max_scans);
-  const std::vector<LaserScan> scans = slam_input(log, kept, spec.mode, o.noise, spec.seed);
+  std::vector<LaserScan> scans = slam_input(log, kept, spec.mode, o.noise, spec.seed);
+  for (LaserScan& scan : scans) scan = keep_every_beam(std::move(scan), o.beam_step);
   SlamConfig config = o.config;
   config.seed = spec.seed;
   config.tracking.use_odometry = spec.mode == GeneraliseMode::kNoisyOdometry;
@@ -232,6 +233,11 @@ void add_generalise_options(CLI::App& cmd, GeneraliseOptions& o) {
       ->capture_default_str();
   cmd.add_option("--max-scans", o.max_scans,
                  "give each run at most N scans, counted after subsampling (0 = all)")
+      ->capture_default_str();
+  cmd.add_option("--beam-step", o.beam_step,
+                 "keep every N-th beam of each scan: 2 makes the logs' 0.5 deg lasers 1 deg "
+                 "ones, as many logs have (1 = every beam)")
+      ->check(CLI::Range(1, 16))
       ->capture_default_str();
   cmd.add_option("--jobs", o.jobs, "runs in parallel threads (scores do not depend on it)")
       ->check(CLI::Range(1, 64))
@@ -402,6 +408,7 @@ int run_generalise(GeneraliseOptions& o) {
   const nlohmann::json out = {{"data_dir", o.data_dir},
                               {"seeds", seed_list},
                               {"max_scans", o.max_scans},
+                              {"beam_step", o.beam_step},
                               {"paper", o.paper},
                               {"changed_parameters", parameters},
                               {"derived_gaps", kGaps},

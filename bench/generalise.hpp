@@ -25,6 +25,7 @@ struct GeneraliseOptions {
   std::vector<std::string> modes = {"laser", "odom"};
   std::string seeds = "1-5";
   std::size_t max_scans = 0;  ///< at most this many scans per run, after subsampling (0 = all)
+  std::size_t beam_step = 1;  ///< every run's scans keep every beam_step-th beam (keep_every_beam)
   int jobs = 1;               ///< runs in parallel (the scores do not depend on it)
   std::string output = "esfleet-bench-generalise.json";
   bool paper = false;  ///< start from SlamConfig::paper() before the SLAM flags

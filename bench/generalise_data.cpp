@@ -226,6 +226,16 @@ std::vector<LaserScan> slam_input(const GeneraliseLog& log, const std::vector<st
   return scans;
 }
 
+LaserScan keep_every_beam(LaserScan scan, std::size_t step) {
+  if (step <= 1) return scan;
+  std::vector<float> kept;
+  kept.reserve(scan.ranges.size() / step + 1);
+  for (std::size_t i = 0; i < scan.ranges.size(); i += step) kept.push_back(scan.ranges[i]);
+  scan.ranges = std::move(kept);
+  scan.angle_increment *= static_cast<float>(step);
+  return scan;
+}
+
 KeptRelations score_kept_relations(const GeneraliseLog& log, const std::vector<std::size_t>& kept,
                                    const std::vector<Pose2>& estimate) {
   if (kept.size() != estimate.size()) {

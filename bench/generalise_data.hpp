@@ -90,6 +90,10 @@ std::vector<LaserScan> slam_input(const GeneraliseLog& log, const std::vector<st
                                   GeneraliseMode mode, const OdometryNoise& noise,
                                   std::uint64_t seed);
 
+/// `scan` with only every `step`-th beam from the first (step 2 turns a 0.5 deg laser into a
+/// 1 deg one, as many logs have); step <= 1 returns it unchanged.
+LaserScan keep_every_beam(LaserScan scan, std::size_t step);
+
 /// The relations of the log whose both ends are kept scans, scored against the run's trajectory.
 struct KeptRelations {
   std::size_t used = 0;   ///< relations with both ends on kept scans

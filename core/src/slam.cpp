@@ -38,6 +38,7 @@ SlamConfig SlamConfig::paper() {
   c.tracking.refine = false;
   c.tracking.search_point_spacing = 0.0;
   c.update.free_margin = 0.0;
+  c.update.beam_fill_deg = 0.0;
   c.tracking.prior_sigma_xy = 0.0;
   c.tracking.prior_sigma_theta_deg = 0.0;
   c.insert_min_travel = 0.0;

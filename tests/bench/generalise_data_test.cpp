@@ -168,6 +168,22 @@ TEST(ScoreKeptRelations, AnEndOnADroppedScanIsDroppedNotMovedToANeighbour) {
   EXPECT_NEAR(d.result.trans_mean, 0.1, 1e-12);
 }
 
+TEST(KeepEveryBeam, ACoarserLaserOverTheSameFieldOfView) {
+  LaserScan s;
+  s.angle_min = -1.0f;
+  s.angle_increment = 0.25f;
+  s.ranges = {1.0f, 2.0f, 3.0f, 4.0f, 5.0f, 6.0f, 7.0f, 8.0f, 9.0f};  // -1 ... +1 rad
+  s.odometry = Pose2{1.0, 2.0, 0.5};
+  const LaserScan two = keep_every_beam(s, 2);
+  EXPECT_EQ(two.ranges, (std::vector<float>{1.0f, 3.0f, 5.0f, 7.0f, 9.0f}));
+  EXPECT_FLOAT_EQ(two.angle_increment, 0.5f);
+  EXPECT_FLOAT_EQ(two.angle(4), 1.0f);  // the last beam keeps its direction
+  EXPECT_EQ(two.odometry, s.odometry);
+  EXPECT_EQ(keep_every_beam(s, 3).ranges, (std::vector<float>{1.0f, 4.0f, 7.0f}));
+  EXPECT_EQ(keep_every_beam(s, 1).ranges, s.ranges);
+  EXPECT_EQ(keep_every_beam(s, 0).ranges, s.ranges);
+}
+
 TEST(SlamInput, LaserOnlyHasNoOdometryAndNoisyOdometryIsNeverTheReference) {
   std::vector<LaserScan> scans(20);
   for (std::size_t i = 0; i < scans.size(); ++i) {

@@ -161,8 +161,7 @@ TEST(MapUpdateTest, ACoarseLaserIsWrittenWithItsWallsFilledIn) {
   for (int i = -10; i <= 10; ++i) ranges.push_back(static_cast<float>(8.025 / std::cos(i * deg)));
   const LaserScan s = scan_of(ranges, static_cast<float>(-10 * deg), static_cast<float>(deg));
   MapUpdateConfig config;
-  EXPECT_EQ(config.beam_fill_deg, 0.0);  // off by default
-  config.beam_fill_deg = 0.5;
+  EXPECT_EQ(config.beam_fill_deg, 0.5);  // the default
   auto wall_cells_hit = [&](const ScanPoints& points) {
     GridMap map(GridMapConfig{.cell_size = 0.05, .tile_edge = 64});
     update_map(map, points, Pose2{0.0, 0.0, 0.0}, config);
@@ -182,10 +181,11 @@ TEST(MapUpdateTest, ACoarseLaserIsWrittenWithItsWallsFilledIn) {
   update_map(map, written.points, Pose2{0.0, 0.0, 0.0}, config);
   update_map(map, written.points, Pose2{0.0, 0.0, 0.0}, config, /*remove=*/true);
   for (int y = -30; y <= 30; ++y) EXPECT_EQ(map.hit({160, y}), 0u) << y;
-  // A 0.5 deg laser, the fill off or a coarser threshold: written as it is.
+  // A 0.5 deg laser, the fill off (the paper) or a coarser threshold: written as it is.
   const LaserScan fine = scan_of(ranges, 0.0f, static_cast<float>(0.5 * deg));
   EXPECT_FALSE(map_points(fine, 0.0f, 0.0f, config).filled);
-  EXPECT_FALSE(map_points(s, 0.0f, 0.0f, MapUpdateConfig{}).filled);
+  EXPECT_EQ(SlamConfig::paper().update.beam_fill_deg, 0.0);
+  EXPECT_FALSE(map_points(s, 0.0f, 0.0f, SlamConfig::paper().update).filled);
   MapUpdateConfig coarse = config;
   coarse.beam_fill_deg = 1.0;
   EXPECT_FALSE(map_points(s, 0.0f, 0.0f, coarse).filled);

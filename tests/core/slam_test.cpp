@@ -80,8 +80,8 @@ TEST(Slam, DefaultConfigurationTracksTheRoomPath) {
 }
 
 TEST(Slam, BeamFillWritesACoarseLasersWallsDenserAndMatchesItsOwnBeams) {
-  // The synthetic laser has 181 beams over 180 deg (1 deg): with --beam-fill 0.5 (off by
-  // default) the scans are written into the map with a point between adjacent beams of one
+  // The synthetic laser has 181 beams over 180 deg (1 deg): with the beam fill (the default,
+  // 0.5 deg) the scans are written into the map with a point between adjacent beams of one
   // wall, while the tracking still matches the scan's own beams.
   const auto path = room_path(0.1);
   const auto scans = scans_along(path);
@@ -94,10 +94,10 @@ TEST(Slam, BeamFillWritesACoarseLasersWallsDenserAndMatchesItsOwnBeams) {
   };
   SlamConfig config;
   config.seed = 1;
-  ASSERT_EQ(config.update.beam_fill_deg, 0.0);  // off by default
-  Slam own(config);
-  config.update.beam_fill_deg = 0.5;
+  ASSERT_EQ(config.update.beam_fill_deg, 0.5);  // the default
   Slam filled(config);
+  config.update.beam_fill_deg = 0.0;
+  Slam own(config);
   for (const LaserScan& scan : scans) {
     const SlamStep a = own.process(scan);
     const SlamStep b = filled.process(scan);
@@ -295,6 +295,10 @@ SlamConfig final_pass_config() {
   // only takes evidence away here. Measured with it (0.15 m): seed 2's heading error after the
   // final pass 1.15 deg of 1.5 (0.46 without), seed 1's 0.54 (0.32).
   c.update.free_margin = 0.0;
+  // The final pass as written for the dense logs' 0.5 deg lasers (the synthetic one has 1 deg).
+  // With the beam fill (docs/slam.md item 11) the same drift is undone less, seeds 1-6: 0.22 m
+  // before, 0.016-0.130 m after, against 0.174 -> 0.029-0.046 m without the fill.
+  c.update.beam_fill_deg = 0.0;
   return c;
 }
 

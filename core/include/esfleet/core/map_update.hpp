@@ -33,15 +33,14 @@ struct MapUpdateConfig {
   /// A beam counts err only in the cells it crosses more than this before its end point
   /// (metres; 0 = every crossed cell, the paper). The cell a beam ends in always gets its hit.
   double free_margin = 0.15;
-  /// Beam fill (ours; 0 = off, the default and the paper): a laser coarser than beam_fill_deg
-  /// is written with end points added between adjacent beams whose ranges differ by at most
+  /// Beam fill (ours; SlamConfig::paper(): 0 = off): a laser coarser than beam_fill_deg is
+  /// written with end points added between adjacent beams whose ranges differ by at most
   /// beam_fill_max_gap metres (BeamFill, prepare_scan; map_points), so that its walls are as
   /// continuous in the map as a 0.5 deg laser's, the resolution the matching thresholds were
   /// measured with. The matching uses the scan's own beams; key scans keep the filled points
   /// (loop closure re-writes and matches them). A laser at least that fine is unchanged.
-  /// Off by default: docs/slam.md item 11 (a key-scan log with a 1 deg laser holds on more
-  /// seeds with 0.5, every 8th fr079 scan at 1 deg on fewer).
-  double beam_fill_deg = 0.0;
+  /// docs/slam.md item 11: a key-scan log with a 1 deg laser holds on more seeds with it.
+  double beam_fill_deg = 0.5;
   double beam_fill_max_gap = 0.2;
   void validate() const;
 };
