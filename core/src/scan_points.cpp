@@ -10,8 +10,9 @@ namespace esfleet {
 int beam_fill_points(const LaserScan& scan, const BeamFill& fill) {
   const double step = std::abs(static_cast<double>(scan.angle_increment));
   const double max_step = fill.max_step_deg * std::numbers::pi / 180.0;
+  // Relative tolerances: a 0.5 deg laser's increment, stored as a float, can be a hair over
+  // 0.5 deg, and a 1 deg one a hair over twice it.
   if (!(max_step > 0.0) || !(step > max_step * (1.0 + 1e-6)) || !std::isfinite(step)) return 0;
-  // A relative tolerance: 1 deg asked of a 0.5 deg laser whose increment rounds to a hair over.
   const double n = std::ceil(step / max_step - 1e-6) - 1.0;
   return static_cast<int>(std::clamp(n, 0.0, 64.0));
 }

@@ -51,10 +51,6 @@ struct MapUpdateStats {
   std::size_t out_of_range = 0;  ///< cell writes refused (outside the allowed tile range)
 };
 
-/// Inserts `points` seen from `pose` into `map` and commits the update (tile versions bumped
-/// once, touched tiles marked dirty). With `remove`, undoes exactly what the same call without
-/// it added (counters are additive), e.g. to move a scan after loop closure; with
-/// `commit` false the caller commits (to batch several scans into one map update).
 /// The end points a scan is written into the map with: prepare_scan with `min_range` and
 /// `max_range` (the tracking's) and the config's beam fill. `filled` is false when the fill
 /// adds nothing (off, or a laser at least beam_fill_deg fine): then the end points are those
@@ -66,6 +62,10 @@ struct MapPoints {
 MapPoints map_points(const LaserScan& scan, float min_range, float max_range,
                      const MapUpdateConfig& config);
 
+/// Inserts `points` seen from `pose` into `map` and commits the update (tile versions bumped
+/// once, touched tiles marked dirty). With `remove`, undoes exactly what the same call without
+/// it added (counters are additive), e.g. to move a scan after loop closure; with
+/// `commit` false the caller commits (to batch several scans into one map update).
 MapUpdateStats update_map(GridMap& map, const ScanPoints& points, const Pose2& pose,
                           const MapUpdateConfig& config = {}, bool remove = false,
                           bool commit = true);
