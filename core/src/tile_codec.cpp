@@ -357,6 +357,11 @@ std::string map_digest(const GridMap& map) {
   std::string out;
   for (const TileKey& key : map.tile_keys()) {
     const Tile* tile = map.find_tile(key);
+    const auto zero = [](std::uint32_t v) { return v == 0; };
+    if (std::all_of(tile->hit.begin(), tile->hit.end(), zero) &&
+        std::all_of(tile->err.begin(), tile->err.end(), zero)) {
+      continue;  // an all-unknown tile is the same map as no tile
+    }
     const std::uint64_t d = tile_digest(tile->hit, tile->err);
     out += std::to_string(key.tx);
     out += ' ';

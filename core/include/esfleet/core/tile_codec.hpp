@@ -82,9 +82,11 @@ void decode_tile(TileEncoding enc, std::span<const std::uint8_t> payload, std::s
 /// and followers compare. Throws std::invalid_argument when the sizes differ.
 std::uint64_t tile_digest(std::span<const std::uint32_t> hit, std::span<const std::uint32_t> err);
 
-/// One line per tile of `map` (every existing tile, all-zero ones included), sorted by key:
-/// "tx ty digest\n" with tx, ty in decimal and the tile_digest as 16 lowercase hex digits.
-/// Written by the leader and by followers to compare maps; "" for an empty map.
+/// One line per tile of `map` with any counter set, sorted by key: "tx ty digest\n" with tx, ty
+/// in decimal and the tile_digest as 16 lowercase hex digits. Written by the leader and by
+/// followers to compare maps; "" for a map without observations. An all-zero tile (all cells
+/// unknown) is left out: it is the same map as no tile, and whether one exists depends on
+/// timing (a loop closure applied late takes back scans that had opened it).
 std::string map_digest(const GridMap& map);
 
 }  // namespace esfleet
