@@ -366,6 +366,17 @@ int LeaderApp::run() {
         "dropped scans, a fast robot), try --recovery on (docs/slam.md)",
         stats.weak_matches, stats.scans);
   }
+  if (!stats.poor_stretches.empty()) {
+    std::string where;
+    for (const PoorStretch& p : stats.poor_stretches) {
+      where += fmt::format("{}{}-{}", where.empty() ? "" : ", ", p.first, p.last);
+    }
+    spdlog::warn(
+        "the scans matched the map poorly in {} stretch{} (scans {}; stats.json poor_stretches): "
+        "the map may be wrong from there on. Scans far apart or a fast robot: keep more scans; "
+        "wheel odometry in the log: --odometry on (docs/slam.md)",
+        stats.poor_stretches.size(), stats.poor_stretches.size() == 1 ? "" : "es", where);
+  }
   if (publisher_ && !stats.interrupted) {
     const std::size_t accepted = serve(stats);
     if (intake_) {

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <filesystem>
 
+#include <spdlog/spdlog.h>
+
 #include "app/summary.hpp"
 #include "esfleet/core/file_io.hpp"
 #include "esfleet/core/map_png.hpp"
@@ -14,7 +16,7 @@
 
 namespace esfleet::leader {
 
-void SlamRunStats::record(const SlamStep& step, double ms) {
+SlamRunStats::Stretch SlamRunStats::record(const SlamStep& step, double ms) {
   ms_per_scan.push_back(ms);
   ++scans;
   inserted += step.inserted ? 1 : 0;
@@ -23,11 +25,30 @@ void SlamRunStats::record(const SlamStep& step, double ms) {
   withheld += step.withheld ? 1 : 0;
   search_ms.push_back(step.search_ms);
   if (step.inserted) update_ms.push_back(step.update_ms);
+  bool weak = false;
   if (scans > 1) {
     const float a = step.fitness.agreement();
     agreement.push_back(a);
-    if (a < 0.5f) ++weak_matches;
+    weak = a < 0.5f;
+    if (weak) ++weak_matches;
   }
+  std::erase_if(recent_weak, [this](std::size_t s) { return s + PoorStretch::kWindow <= scans; });
+  if (weak) recent_weak.push_back(scans);
+  PoorStretch* open =
+      !poor_stretches.empty() && poor_stretches.back().open ? &poor_stretches.back() : nullptr;
+  if (open != nullptr) {
+    if (weak) {
+      open->last = scans;
+      ++open->weak;
+    } else if (scans - open->last >= PoorStretch::kQuiet) {
+      open->open = false;
+      return Stretch::kClosed;
+    }
+    return Stretch::kNone;
+  }
+  if (recent_weak.size() * 2 < PoorStretch::kWindow) return Stretch::kNone;
+  poor_stretches.push_back({recent_weak.front(), recent_weak.back(), recent_weak.size(), true});
+  return Stretch::kOpened;
 }
 
 SlamRunStats run_slam(Slam& slam, app::ScanSource& source, std::size_t max_scans,
@@ -49,7 +70,20 @@ SlamRunStats run_slam(Slam& slam, app::ScanSource& source, std::size_t max_scans
     if (!first) first = t0;
     const SlamStep step = slam.process(*scan);
     const auto t1 = Clock::now();
-    stats.record(step, std::chrono::duration<double, std::milli>(t1 - t0).count());
+    const SlamRunStats::Stretch stretch =
+        stats.record(step, std::chrono::duration<double, std::milli>(t1 - t0).count());
+    if (stretch == SlamRunStats::Stretch::kOpened) {
+      const PoorStretch& p = stats.poor_stretches.back();
+      spdlog::warn(
+          "scans {}-{}: {} of the last {} matched the map poorly (under half of the end points "
+          "on mapped cells on occupied ones): the SLAM may have lost track, and the map from "
+          "scan {} on may be wrong",
+          p.first, stats.scans, p.weak, PoorStretch::kWindow, p.first);
+    } else if (stretch == SlamRunStats::Stretch::kClosed) {
+      const PoorStretch& p = stats.poor_stretches.back();
+      spdlog::info("scans match the map again: {} poor matches in scans {}-{}", p.weak, p.first,
+                   p.last);
+    }
     if (on_step) on_step(*scan, step, stats.scans);
     last = Clock::now();
   }
@@ -88,6 +122,11 @@ void write_slam_outputs(const std::string& dir, const Slam& slam, const SlamRunS
   j["recoveries_tried"] = stats.recoveries_tried;
   j["recovered"] = stats.recovered;
   j["withheld_scans"] = stats.withheld;
+  nlohmann::json poor = nlohmann::json::array();
+  for (const PoorStretch& p : stats.poor_stretches) {
+    poor.push_back({{"first", p.first}, {"last", p.last}, {"weak", p.weak}});
+  }
+  j["poor_stretches"] = poor;
   j["loop_closures"] = slam.loop_closures();
   j["loop_closures_rejected"] = slam.loop_closures_rejected();
   j["key_scans"] = slam.key_scans();

@@ -77,8 +77,9 @@ The robot that maps. It runs the (μ+1)-ES SLAM over a CARMEN log (`--log`) or o
 robot publishes (`--scan-topic`) and, unless `--offline`, shares the map over DDS while it maps,
 then serves it to late joiners. It writes the map (ROS `map_server` PGM + YAML, a PNG with the
 trajectory), `trajectory.txt`, `map.digest` and `stats.json` into `--out`, and checkpoints for
-`--resume` (`docs/faults.md`). `stats.json` has the time per scan, the SLAM's counters, every
-parameter and, when sharing, a `dds` section (bytes sent against republishing the whole map).
+`--resume` (`docs/faults.md`). `stats.json` has the time per scan, the SLAM's counters (with
+`poor_stretches`, the scans where it may have lost track: `docs/slam.md`), every parameter
+and, when sharing, a `dds` section (bytes sent against republishing the whole map).
 With `--scan-topic` it maps that robot's scans in arrival order, as it would from a log (the
 same seed gives the trajectory of an `--offline` run); it ends after `--idle-exit` seconds
 without a scan (the map then complete), after `--max-scans`, or on Ctrl-C (the map not marked
