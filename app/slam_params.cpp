@@ -25,6 +25,12 @@ void add_slam_params(ParamTable& t, SlamConfig* s, CarmenReaderOptions* r) {
   t.add_double("beam_fill_max_gap", &s->update.beam_fill_max_gap,
                "beam fill: only between adjacent beams whose ranges differ by at most this, "
                "metres");
+  t.add_double("beam_fill_min_step", &s->update.beam_fill_min_step,
+               "beam fill: only while the scans are far apart, this scan's step or one of the "
+               "5 before moving at least this, metres, or turning --beam-fill-min-turn (both 0 "
+               "= every scan)");
+  t.add_double("beam_fill_min_turn", &s->update.beam_fill_min_turn_deg,
+               "beam fill: ... or turning at least this, degrees");
   // ES (paper Eq. 9, Table 2).
   t.add_int("mu", &s->tracking.es.mu, "ES parents");
   t.add_int("iterations", &s->tracking.es.iterations, "ES iterations T per scan (one child each)");

@@ -29,6 +29,14 @@ void MapUpdateConfig::validate() const {
     throw std::invalid_argument("update.beam_fill_max_gap must be >= 0, got " +
                                 std::to_string(beam_fill_max_gap));
   }
+  if (!(beam_fill_min_step >= 0.0) || !std::isfinite(beam_fill_min_step)) {
+    throw std::invalid_argument("update.beam_fill_min_step must be >= 0, got " +
+                                std::to_string(beam_fill_min_step));
+  }
+  if (!(beam_fill_min_turn_deg >= 0.0) || !std::isfinite(beam_fill_min_turn_deg)) {
+    throw std::invalid_argument("update.beam_fill_min_turn must be >= 0, got " +
+                                std::to_string(beam_fill_min_turn_deg));
+  }
 }
 
 MapPoints map_points(const LaserScan& scan, float min_range, float max_range,

@@ -210,10 +210,12 @@ SlamStep Slam::process_scan(const LaserScan& scan) {
     const Pose2& prev = trajectory_.back().pose;
     path_length_ += std::hypot(step.pose.x - prev.x, step.pose.y - prev.y);
   }
-  // Matched with the scan's own beams; written (and kept as a key scan) filled, if at all.
-  const MapPoints written = insert ? map_points(scan, config_.tracking.min_range,
-                                                config_.tracking.max_range, config_.update)
-                                   : MapPoints{};
+  // Matched with the scan's own beams; written (and kept as a key scan) filled, if at all
+  // and only while the scans are far apart.
+  const MapPoints written =
+      insert && scans_far_apart(step.pose)
+          ? map_points(scan, config_.tracking.min_range, config_.tracking.max_range, config_.update)
+          : MapPoints{};
   if (insert) {
     step.inserted = true;
     const auto t_update = Clock::now();
@@ -296,6 +298,25 @@ void Slam::recover(const LaserScan& scan, const ScanPoints& points, const Motion
     step.pose = r.result.pose;
     step.fitness = r.result.value;
   }
+}
+
+bool Slam::scans_far_apart(const Pose2& pose) const {
+  const MapUpdateConfig& u = config_.update;
+  if (trajectory_.empty() || (u.beam_fill_min_step <= 0.0 && u.beam_fill_min_turn_deg <= 0.0)) {
+    return true;
+  }
+  const auto far = [&u](const Pose2& from, const Pose2& to) {
+    const Pose2 d = to.relative_to(from);
+    return (u.beam_fill_min_step > 0.0 && std::hypot(d.x, d.y) >= u.beam_fill_min_step) ||
+           (u.beam_fill_min_turn_deg > 0.0 &&
+            std::abs(d.theta) >= deg_to_rad(u.beam_fill_min_turn_deg));
+  };
+  if (far(trajectory_.back().pose, pose)) return true;
+  const std::size_t n = trajectory_.size();
+  for (std::size_t i = n > kScaleSteps ? n - kScaleSteps : 1; i < n; ++i) {
+    if (far(trajectory_[i - 1].pose, trajectory_[i].pose)) return true;
+  }
+  return false;
 }
 
 bool Slam::add_key_scan(const ScanPoints& points, const Pose2& pose, double stamp) {

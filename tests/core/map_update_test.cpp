@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <stdexcept>
 
@@ -197,6 +198,12 @@ TEST(MapUpdateTest, ACoarseLaserIsWrittenWithItsWallsFilledIn) {
   EXPECT_THROW(bad.validate(), std::invalid_argument);
   bad = config;
   bad.beam_fill_max_gap = std::nan("");
+  EXPECT_THROW(bad.validate(), std::invalid_argument);
+  bad = config;
+  bad.beam_fill_min_step = -0.1;
+  EXPECT_THROW(bad.validate(), std::invalid_argument);
+  bad = config;
+  bad.beam_fill_min_turn_deg = std::numeric_limits<double>::infinity();
   EXPECT_THROW(bad.validate(), std::invalid_argument);
 }
 

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -95,6 +96,9 @@ TEST(Slam, BeamFillWritesACoarseLasersWallsDenserAndMatchesItsOwnBeams) {
   SlamConfig config;
   config.seed = 1;
   ASSERT_EQ(config.update.beam_fill_deg, 0.5);  // the default
+  // Every scan (by default only scans far apart: the next test).
+  config.update.beam_fill_min_step = 0.0;
+  config.update.beam_fill_min_turn_deg = 0.0;
   Slam filled(config);
   config.update.beam_fill_deg = 0.0;
   Slam own(config);
@@ -113,6 +117,42 @@ TEST(Slam, BeamFillWritesACoarseLasersWallsDenserAndMatchesItsOwnBeams) {
   EXPECT_GT(n_filled, n_own + 30) << n_own << " cells hit without the fill";
   EXPECT_LT(track_error(filled.trajectory(), path).xy, 0.05);
   EXPECT_LT(track_error(own.trajectory(), path).xy, 0.05);
+}
+
+TEST(Slam, BeamFillOnlyWhileTheScansAreFarApart) {
+  // By default a scan is written filled only while this step or one of the 5 before it moved
+  // at least 0.3 m or turned at least 15 degrees. The room path (0.1 m steps, turns of 10
+  // degrees on the spot) is written with the scans' own beams after the first scan; the same
+  // room crossed in 0.5 m steps is written filled.
+  auto own_beams_written = [](const std::vector<LaserScan>& scans, SlamConfig config) {
+    Slam slam(config);
+    std::vector<bool> own;  // per inserted scan: written with exactly its own end points
+    for (const LaserScan& scan : scans) {
+      const SlamStep s = slam.process(scan);
+      if (s.inserted) own.push_back(s.update.hits == prepare_scan(scan).size());
+    }
+    return own;
+  };
+  SlamConfig config;
+  config.seed = 1;
+  ASSERT_EQ(config.update.beam_fill_min_step, 0.3);
+  ASSERT_EQ(config.update.beam_fill_min_turn_deg, 15.0);
+  const std::vector<bool> slow = own_beams_written(scans_along(room_path(0.1)), config);
+  ASSERT_GT(slow.size(), 10u);
+  EXPECT_FALSE(slow.front());  // the first scan counts as far from the (none) before it
+  EXPECT_EQ(std::count(slow.begin() + 1, slow.end(), false), 0);
+
+  std::vector<Pose2> fast;
+  for (double x = 5.0; x <= 10.0; x += 0.5) fast.push_back({x, 3.8, 0.0});
+  const std::vector<bool> far = own_beams_written(scans_along(fast), config);
+  ASSERT_GT(far.size(), 5u);
+  EXPECT_EQ(std::count(far.begin(), far.end(), true), 0);
+
+  // Both thresholds 0: every scan filled, slow or not.
+  config.update.beam_fill_min_step = 0.0;
+  config.update.beam_fill_min_turn_deg = 0.0;
+  const std::vector<bool> always = own_beams_written(scans_along(room_path(0.1)), config);
+  EXPECT_EQ(std::count(always.begin(), always.end(), true), 0);
 }
 
 TEST(Slam, PaperConfigurationTracksSlowMotion) {

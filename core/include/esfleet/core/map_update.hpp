@@ -42,6 +42,13 @@ struct MapUpdateConfig {
   /// docs/slam.md item 11: a key-scan log with a 1 deg laser holds on more seeds with it.
   double beam_fill_deg = 0.5;
   double beam_fill_max_gap = 0.2;
+  /// The SLAM fills a scan only while the scans are far apart: this scan's step or one of
+  /// the 5 before it moved at least beam_fill_min_step metres or turned at least
+  /// beam_fill_min_turn_deg degrees (the first scan counts as far). Scans close together
+  /// (0.2 s apart) gained nothing from the fill and lost a little accuracy (docs/slam.md item
+  /// 11). Both 0 = every scan. Contributions (Slam::contribute) are always filled.
+  double beam_fill_min_step = 0.3;
+  double beam_fill_min_turn_deg = 15.0;
   void validate() const;
 };
 

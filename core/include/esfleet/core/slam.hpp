@@ -198,6 +198,9 @@ class Slam {
   /// applies a deferred loop-closure search that is due and starts a new one when it is time;
   /// returns true when the graph was re-optimised.
   bool add_key_scan(const ScanPoints& points, const Pose2& pose, double stamp);
+  /// Whether a scan found at `pose` is far from the ones before it, as the beam fill wants
+  /// (MapUpdateConfig::beam_fill_min_step).
+  bool scans_far_apart(const Pose2& pose) const;
   /// Starts the loop-closure search for key scan k against the older key scans at their
   /// current graph poses (a copy of the few it needs; on a worker thread when deferred or
   /// speculative). Returns false, starting nothing, when too few old scans are near it.
