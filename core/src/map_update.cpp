@@ -9,34 +9,26 @@
 
 namespace esfleet {
 
+namespace {
+/// Throws std::invalid_argument naming update.<name> unless `value` is finite and >= 0.
+void require_non_negative(double value, const char* name) {
+  if (!(value >= 0.0) || !std::isfinite(value)) {
+    throw std::invalid_argument(std::string("update.") + name + " must be >= 0, got " +
+                                std::to_string(value));
+  }
+}
+}  // namespace
+
 void MapUpdateConfig::validate() const {
   if (!(alpha_res > 0.0) || !std::isfinite(alpha_res)) {
     throw std::invalid_argument("update.alpha_res must be > 0, got " + std::to_string(alpha_res));
   }
-  if (!(no_return_clear_range >= 0.0) || !std::isfinite(no_return_clear_range)) {
-    throw std::invalid_argument("update.no_return_clear_range must be >= 0, got " +
-                                std::to_string(no_return_clear_range));
-  }
-  if (!(free_margin >= 0.0) || !std::isfinite(free_margin)) {
-    throw std::invalid_argument("update.free_margin must be >= 0, got " +
-                                std::to_string(free_margin));
-  }
-  if (!(beam_fill_deg >= 0.0) || !std::isfinite(beam_fill_deg)) {
-    throw std::invalid_argument("update.beam_fill must be >= 0, got " +
-                                std::to_string(beam_fill_deg));
-  }
-  if (!(beam_fill_max_gap >= 0.0) || !std::isfinite(beam_fill_max_gap)) {
-    throw std::invalid_argument("update.beam_fill_max_gap must be >= 0, got " +
-                                std::to_string(beam_fill_max_gap));
-  }
-  if (!(beam_fill_min_step >= 0.0) || !std::isfinite(beam_fill_min_step)) {
-    throw std::invalid_argument("update.beam_fill_min_step must be >= 0, got " +
-                                std::to_string(beam_fill_min_step));
-  }
-  if (!(beam_fill_min_turn_deg >= 0.0) || !std::isfinite(beam_fill_min_turn_deg)) {
-    throw std::invalid_argument("update.beam_fill_min_turn must be >= 0, got " +
-                                std::to_string(beam_fill_min_turn_deg));
-  }
+  require_non_negative(no_return_clear_range, "no_return_clear_range");
+  require_non_negative(free_margin, "free_margin");
+  require_non_negative(beam_fill_deg, "beam_fill");
+  require_non_negative(beam_fill_max_gap, "beam_fill_max_gap");
+  require_non_negative(beam_fill_min_step, "beam_fill_min_step");
+  require_non_negative(beam_fill_min_turn_deg, "beam_fill_min_turn");
 }
 
 MapPoints map_points(const LaserScan& scan, float min_range, float max_range,
