@@ -61,6 +61,15 @@ using Clock = std::chrono::steady_clock;
 constexpr std::size_t kMaxSpeculations = 6;
 /// The recovery window scales with the largest of this many last inter-scan motions.
 constexpr std::size_t kScaleSteps = 5;
+/// Calls f(d) for each of the last kScaleSteps inter-scan motions of `trajectory` (fewer at
+/// the start), d being scan i's pose in scan i - 1's frame.
+template <class F>
+void for_recent_steps(const std::vector<TimedPose>& trajectory, const F& f) {
+  const std::size_t n = trajectory.size();
+  for (std::size_t i = n > kScaleSteps ? n - kScaleSteps : 1; i < n; ++i) {
+    f(trajectory[i].pose.relative_to(trajectory[i - 1].pose));
+  }
+}
 /// Runs work(t, threads) for t = 0 .. threads - 1, t = 0 on the calling thread, the rest on
 /// threads of their own; returns when all are done. Each work takes the indices t, t + threads,
 /// ... of a job list and writes its results by index, so they do not depend on `threads`.
@@ -219,8 +228,7 @@ SlamStep Slam::process_scan(const LaserScan& scan) {
   if (insert) {
     step.inserted = true;
     const auto t_update = Clock::now();
-    step.update =
-        update_map(map_, written.filled ? written.points : points, step.pose, config_.update);
+    step.update = update_map(map_, written.or_own(points), step.pose, config_.update);
     step.update_ms = ms_since(t_update);
     last_inserted_ = step.pose;
   }
@@ -230,8 +238,7 @@ SlamStep Slam::process_scan(const LaserScan& scan) {
     if (insert) {
       anchors_.emplace_back(keys_.size(), Pose2{});
       const auto t_loop = Clock::now();
-      step.loop_closed =
-          add_key_scan(written.filled ? written.points : points, step.pose, scan.stamp);
+      step.loop_closed = add_key_scan(written.or_own(points), step.pose, scan.stamp);
       step.loop_ms = ms_since(t_loop);
       if (step.loop_closed) step.pose = trajectory_.back().pose;
     } else {
@@ -264,11 +271,10 @@ void Slam::recover(const LaserScan& scan, const ScanPoints& points, const Motion
   // seen yet (the second scan): all of it.
   const std::size_t n = trajectory_.size();
   double scale = n < 2 ? 1.0 : rc.window_min_scale;
-  for (std::size_t i = n > kScaleSteps ? n - kScaleSteps : 1; i < n; ++i) {
-    const Pose2 d = trajectory_[i].pose.relative_to(trajectory_[i - 1].pose);
+  for_recent_steps(trajectory_, [&](const Pose2& d) {
     scale = std::max(scale, std::hypot(d.x, d.y) / rc.window_scale_xy +
                                 std::abs(d.theta) / deg_to_rad(rc.window_scale_theta_deg));
-  }
+  });
   scale = std::min(scale, 1.0);
   // A weak match while the robot moves little per scan is clutter or a featureless stretch,
   // which the tracking's motion prior handles better than a jump.
@@ -305,18 +311,14 @@ bool Slam::scans_far_apart(const Pose2& pose) const {
   if (trajectory_.empty() || (u.beam_fill_min_step <= 0.0 && u.beam_fill_min_turn_deg <= 0.0)) {
     return true;
   }
-  const auto far = [&u](const Pose2& from, const Pose2& to) {
-    const Pose2 d = to.relative_to(from);
+  const auto far = [&u](const Pose2& d) {
     return (u.beam_fill_min_step > 0.0 && std::hypot(d.x, d.y) >= u.beam_fill_min_step) ||
            (u.beam_fill_min_turn_deg > 0.0 &&
             std::abs(d.theta) >= deg_to_rad(u.beam_fill_min_turn_deg));
   };
-  if (far(trajectory_.back().pose, pose)) return true;
-  const std::size_t n = trajectory_.size();
-  for (std::size_t i = n > kScaleSteps ? n - kScaleSteps : 1; i < n; ++i) {
-    if (far(trajectory_[i - 1].pose, trajectory_[i].pose)) return true;
-  }
-  return false;
+  bool any = far(pose.relative_to(trajectory_.back().pose));
+  for_recent_steps(trajectory_, [&](const Pose2& d) { any = any || far(d); });
+  return any;
 }
 
 bool Slam::add_key_scan(const ScanPoints& points, const Pose2& pose, double stamp) {
@@ -719,7 +721,7 @@ ContributionResult Slam::contribute(const Contribution& c) {
   r.verdict = ContributionVerdict::kAccepted;
   const MapPoints written =
       map_points(c.scan, config_.tracking.min_range, config_.tracking.max_range, config_.update);
-  const ScanPoints& inserted = written.filled ? written.points : points;
+  const ScanPoints& inserted = written.or_own(points);
   update_map(map_, inserted, r.refined, config_.update);
   if (!config_.loop.enabled) return r;
   // A key scan of the pose graph.

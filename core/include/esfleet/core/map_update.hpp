@@ -65,6 +65,8 @@ struct MapUpdateStats {
 struct MapPoints {
   bool filled = false;
   ScanPoints points;
+  /// The points to write: the filled ones, or `own` (the scan's own end points) if none.
+  const ScanPoints& or_own(const ScanPoints& own) const { return filled ? points : own; }
 };
 MapPoints map_points(const LaserScan& scan, float min_range, float max_range,
                      const MapUpdateConfig& config);
