@@ -189,6 +189,10 @@ void add_slam_params(ParamTable& t, SlamConfig* s, CarmenReaderOptions* r) {
                "(0 = never)");
   t.add_double("recovery_wide_motion_theta", &s->recovery.wide_motion_theta_deg,
                "... or turns this much, degrees (0 = never)");
+  t.add_double("recovery_max_speed", &s->recovery.max_speed,
+               "laser only: the recovery search also runs when the time since the last scan "
+               "would let the robot drive recovery_wide_motion_xy at this speed, with a window "
+               "at least that reach (a robot that stood may have driven off), m/s (0 = never)");
   t.add_double("recovery_settled_agreement", &s->recovery.settled_agreement,
                "a large motion does not start the recovery search when the tracked pose "
                "agrees at least this much with the map (0 = it always does) ...");

@@ -26,6 +26,7 @@ void RecoveryConfig::validate() const {
   check(in01(settled_known), "settled_known must be in [0, 1]");
   check(wide_motion_xy >= 0.0 && wide_motion_theta_deg >= 0.0,
         "wide_motion_xy and wide_motion_theta must be >= 0 (0 = off)");
+  check(max_speed >= 0.0 && std::isfinite(max_speed), "max_speed must be >= 0 (0 = off)");
   check(window_scale_xy > 0.0 && window_scale_theta_deg > 0.0,
         "window_scale_xy and window_scale_theta must be > 0");
   check(window_min_scale > 0.0 && window_min_scale <= 1.0, "window_min_scale must be in (0, 1]");

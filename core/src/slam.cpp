@@ -254,12 +254,17 @@ void Slam::recover(const LaserScan& scan, const ScanPoints& points, const Motion
   const RecoveryConfig& rc = config_.recovery;
   const bool weak = weak_match(rc, step.fitness);
   // With odometry the motion is measured, not guessed: only a weak match triggers.
+  const bool measured = config_.tracking.use_odometry && scan.odometry && last_odometry_;
   const Pose2 motion_step = predicted.relative_to(motion.last.pose);
+  // How far the robot could have driven since the last scan, whatever it did before.
+  const double dt = scan.stamp - trajectory_.back().stamp;
+  const double reach = !measured && rc.max_speed > 0.0 && dt > 0.0 ? rc.max_speed * dt : 0.0;
   const bool wide =
-      !(config_.tracking.use_odometry && scan.odometry && last_odometry_) &&
+      !measured &&
       ((rc.wide_motion_xy > 0.0 && std::hypot(motion_step.x, motion_step.y) >= rc.wide_motion_xy) ||
        (rc.wide_motion_theta_deg > 0.0 &&
-        std::abs(motion_step.theta) >= deg_to_rad(rc.wide_motion_theta_deg)));
+        std::abs(motion_step.theta) >= deg_to_rad(rc.wide_motion_theta_deg)) ||
+       (rc.wide_motion_xy > 0.0 && reach >= rc.wide_motion_xy));
   if (!weak && !wide) return;
   // A large motion the tracking already matched well (an in-place turn in a mapped room).
   if (!weak && rc.settled_agreement > 0.0 && step.fitness.agreement() >= rc.settled_agreement &&
@@ -267,10 +272,11 @@ void Slam::recover(const LaserScan& scan, const ScanPoints& points, const Motion
     return;
   }
   // The window scales with the largest recent motion (1 m or 45 degrees per scan = all of it,
-  // at least window_min_scale): a robot creeping 10 cm per scan cannot be 1.5 m off. No motion
-  // seen yet (the second scan): all of it.
+  // at least window_min_scale): a robot creeping 10 cm per scan cannot be 1.5 m off, unless
+  // the time since the last scan let it drive further. No motion seen yet (the second scan):
+  // all of it.
   const std::size_t n = trajectory_.size();
-  double scale = n < 2 ? 1.0 : rc.window_min_scale;
+  double scale = n < 2 ? 1.0 : std::max(rc.window_min_scale, reach / rc.window_scale_xy);
   for_recent_steps(trajectory_, [&](const Pose2& d) {
     scale = std::max(scale, std::hypot(d.x, d.y) / rc.window_scale_xy +
                                 std::abs(d.theta) / deg_to_rad(rc.window_scale_theta_deg));

@@ -6,9 +6,12 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "esfleet/core/slam.hpp"
 #include "synthetic_world.hpp"
@@ -215,6 +218,45 @@ TEST(Recovery, AnInPlaceTurnTheTrackingMatchedIsNotSearched) {
   };
   EXPECT_EQ(searched(SlamConfig{}.recovery.settled_agreement), 0);
   EXPECT_EQ(searched(0.0), 3);
+}
+
+TEST(Recovery, ARobotThatStoodMayHaveDrivenOffInTheTimeSinceTheLastScan) {
+  // Laser only, a scan every 2 s (as in a log of every 8th scan): the robot stands for four
+  // scans, then drives 0.9 m per scan. Standing, the prediction is no motion: the search's
+  // window follows the recent motion (a quarter of +-1.5 m), and the 0.9 m step is out of its
+  // reach although the match is weak. With max_speed the time since the last scan (2 s at
+  // 1 m/s) starts the search on every scan, with the whole window.
+  const auto world = asymmetric_room();
+  const std::vector<double> xs{2.0, 2.0, 2.0, 2.0, 2.9, 3.8, 4.7};
+  struct Run {
+    double worst = 0.0;  // metres from the truth
+    int searched_standing = 0;
+  };
+  auto run = [&](double max_speed, int seed) {
+    SlamConfig config;
+    config.recovery.max_speed = max_speed;
+    config.seed = static_cast<std::uint64_t>(seed);
+    Slam slam(config);
+    Run r;
+    for (std::size_t i = 0; i < xs.size(); ++i) {
+      const SlamStep step =
+          slam.process(make_scan(world, {xs[i], 4.0, 0.0}, 2.0 * static_cast<double>(i)));
+      if (i >= 1 && i <= 3) r.searched_standing += step.recovery_tried ? 1 : 0;
+      r.worst = std::max(r.worst, std::hypot(step.pose.x - (xs[i] - xs[0]), step.pose.y));
+    }
+    return r;
+  };
+  for (int seed = 1; seed <= 3; ++seed) {
+    const Run with = run(1.0, seed);
+    EXPECT_LT(with.worst, 0.1) << "seed " << seed;
+    EXPECT_EQ(with.searched_standing, 3) << "seed " << seed;
+    const Run without = run(0.0, seed);
+    EXPECT_GT(without.worst, 0.5) << "seed " << seed;
+    EXPECT_EQ(without.searched_standing, 0) << "seed " << seed;
+  }
+  RecoveryConfig bad;
+  bad.max_speed = -1.0;
+  EXPECT_THROW(bad.validate(), std::invalid_argument);
 }
 
 }  // namespace

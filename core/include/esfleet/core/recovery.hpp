@@ -46,6 +46,13 @@ struct RecoveryConfig {
   /// settle on a wrong pose that agrees well with the little the map knows ahead. 0 = never.
   double wide_motion_xy = 0.4;          ///< metres
   double wide_motion_theta_deg = 15.0;  ///< degrees
+  /// ... or when the time since the last scan would let the robot travel wide_motion_xy at this
+  /// speed, whatever the predicted motion: a robot that stood still may have driven off (fr079
+  /// every 8th scan: 0.9 m in one 2 s step after standing, tracked as 0.06 m with agreement
+  /// 0.70, docs/slam.md item 7). The window is then at least that reach. A stamp not after the
+  /// last scan's (the rounded stamps of a key-scan log) gives no time; with odometry the motion
+  /// is measured and this plays no part. 0 = never.
+  double max_speed = 1.0;  ///< metres per second
   /// ... unless the tracked pose has settled: at least `settled_agreement` of its end points on
   /// observed cells fall on cells with hits, and at least `settled_known` of them are on
   /// observed cells (an in-place turn in a mapped room). Of the searches a large motion alone
