@@ -178,6 +178,9 @@ void add_slam_params(ParamTable& t, SlamConfig* s, CarmenReaderOptions* r) {
                "a large motion)");
   t.add_double("recovery_gain_per_window_fair", &s->recovery.gain_per_window_fair,
                "... see recovery_min_gain_fair");
+  t.add_double("recovery_clear_gain", &s->recovery.clear_gain,
+               "a recovered pose at least this much more consistent than the tracked one "
+               "replaces it however far the jump (0 = no cap)");
   t.add_double("recovery_window_min_scale", &s->recovery.window_min_scale,
                "the recovery window shrinks with the largest of the last 5 inter-scan motions "
                "(1 m or 45 degrees = the whole window), to at least this share of it");

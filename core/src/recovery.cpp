@@ -21,6 +21,7 @@ void RecoveryConfig::validate() const {
   check(in01(min_gain) && in01(min_gain_fair), "min_gain and min_gain_fair must be in [0, 1]");
   check(gain_per_window >= 0.0 && gain_per_window_fair >= 0.0,
         "gain_per_window and gain_per_window_fair must be >= 0");
+  check(clear_gain >= 0.0 && clear_gain <= 3.0, "clear_gain must be in [0, 3] (0 = no cap)");
   check(in01(insert_min_agreement), "insert_min_agreement must be in [0, 1]");
   check(in01(settled_agreement), "settled_agreement must be in [0, 1]");
   check(in01(settled_known), "settled_known must be in [0, 1]");
@@ -47,6 +48,12 @@ bool weak_match(const RecoveryConfig& config, const FitnessValue& v) {
   if (v.n_points == 0) return false;
   return (v.known_share() >= config.min_known && v.agreement() < config.weak_agreement) ||
          v.known_share() < config.lost_view_known;
+}
+
+double gain_needed(const RecoveryConfig& config, bool weak, double d) {
+  const double needed = weak ? config.min_gain + config.gain_per_window * d
+                             : config.min_gain_fair + config.gain_per_window_fair * d;
+  return config.clear_gain > 0.0 ? std::min(needed, config.clear_gain) : needed;
 }
 
 namespace {

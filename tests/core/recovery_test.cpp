@@ -126,6 +126,25 @@ TEST(Recovery, ValidateNamesTheField) {
   EXPECT_FALSE(SlamConfig::paper().recovery.enabled);
 }
 
+TEST(Recovery, TheGainAJumpNeedsGrowsWithItsLengthUpToAClearGain) {
+  RecoveryConfig c;  // weak 0.05 + 0.15 d, fair 0.15 + 0.375 d, at most 0.5
+  EXPECT_DOUBLE_EQ(gain_needed(c, true, 0.0), 0.05);
+  EXPECT_DOUBLE_EQ(gain_needed(c, true, 2.0), 0.35);
+  EXPECT_DOUBLE_EQ(gain_needed(c, false, 0.0), 0.15);
+  EXPECT_DOUBLE_EQ(gain_needed(c, false, 0.8), 0.45);
+  // A fair tracked pose turned by 100 degrees, the jump 1.8 windows: 0.825 without the cap.
+  EXPECT_DOUBLE_EQ(gain_needed(c, false, 1.8), 0.5);
+  c.clear_gain = 0.0;
+  EXPECT_DOUBLE_EQ(gain_needed(c, false, 1.8), 0.825);
+  c.clear_gain = -0.1;
+  try {
+    c.validate();
+    FAIL() << "accepted clear_gain -0.1";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("slam.recovery_clear_gain"), std::string::npos);
+  }
+}
+
 /// Scans along a path in the room, every `every`-th kept: the SLAM's pose error at the end.
 double slam_error(bool recovery, int every, std::size_t* recovered = nullptr) {
   const auto world = asymmetric_room();

@@ -90,6 +90,12 @@ struct RecoveryConfig {
   double gain_per_window = 0.15;
   double min_gain_fair = 0.15;
   double gain_per_window_fair = 0.375;
+  /// ... but a gain of at least this is taken however far the jump: a corridor's slide gains
+  /// little, a pose this much more consistent is not a near miss (fr079 every 8th scan, 1 deg
+  /// laser: a tracked pose turned by 100 deg with agreement 0.79, the right one 0.72 more
+  /// consistent, refused against 0.83 needed; docs/slam.md item 7). A weak tracked pose needs
+  /// less (0.35 at the window's edge). 0 = no cap.
+  double clear_gain = 0.5;
   /// Slam: a scan whose final agreement stays below this (with min_known observed) is not
   /// written into the map. 0 = every scan the insertion rule picks is written.
   double insert_min_agreement = 0.5;
@@ -111,6 +117,12 @@ Consistency consistency(const GridMap& map, const ScanPoints& points, const Pose
 
 /// True when `v` is a weak match by `config` (see RecoveryConfig::weak_agreement).
 bool weak_match(const RecoveryConfig& config, const FitnessValue& v);
+
+/// The consistency gain a recovered pose needs over the tracked one to replace it, for a jump
+/// `d` relative to the search window (xy / window_xy + turn / window_theta): min_gain +
+/// gain_per_window * d for a weak tracked pose, the *_fair ones for a fair one, at most
+/// clear_gain (when > 0).
+double gain_needed(const RecoveryConfig& config, bool weak, double d);
 
 struct RecoveryResult {
   EsResult result;            ///< the pose found and its fitness terms (tracking's fitness)
