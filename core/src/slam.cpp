@@ -259,12 +259,11 @@ void Slam::recover(const LaserScan& scan, const ScanPoints& points, const Motion
   // How far the robot could have driven since the last scan, whatever it did before.
   const double dt = scan.stamp - trajectory_.back().stamp;
   const double reach = !measured && rc.max_speed > 0.0 && dt > 0.0 ? rc.max_speed * dt : 0.0;
+  const double travel = std::max(std::hypot(motion_step.x, motion_step.y), reach);
   const bool wide =
-      !measured &&
-      ((rc.wide_motion_xy > 0.0 && std::hypot(motion_step.x, motion_step.y) >= rc.wide_motion_xy) ||
-       (rc.wide_motion_theta_deg > 0.0 &&
-        std::abs(motion_step.theta) >= deg_to_rad(rc.wide_motion_theta_deg)) ||
-       (rc.wide_motion_xy > 0.0 && reach >= rc.wide_motion_xy));
+      !measured && ((rc.wide_motion_xy > 0.0 && travel >= rc.wide_motion_xy) ||
+                    (rc.wide_motion_theta_deg > 0.0 &&
+                     std::abs(motion_step.theta) >= deg_to_rad(rc.wide_motion_theta_deg)));
   if (!weak && !wide) return;
   // A large motion the tracking already matched well (an in-place turn in a mapped room).
   if (!weak && rc.settled_agreement > 0.0 && step.fitness.agreement() >= rc.settled_agreement &&
