@@ -181,6 +181,10 @@ void add_slam_params(ParamTable& t, SlamConfig* s, CarmenReaderOptions* r) {
   t.add_double("recovery_clear_gain", &s->recovery.clear_gain,
                "a recovered pose at least this much more consistent than the tracked one "
                "replaces it however far the jump (0 = no cap)");
+  t.add_double("recovery_min_hits", &s->recovery.min_hits,
+               "a recovered pose with under 30 % of its end points on observed cells is still "
+               "taken with at least this share of them on hits, and twice the tracked pose's "
+               "(a missed turn in place into new space; 0 = never)");
   t.add_double("recovery_window_min_scale", &s->recovery.window_min_scale,
                "the recovery window shrinks with the largest of the last 5 inter-scan motions "
                "(1 m or 45 degrees = the whole window), to at least this share of it");

@@ -22,6 +22,7 @@ void RecoveryConfig::validate() const {
   check(gain_per_window >= 0.0 && gain_per_window_fair >= 0.0,
         "gain_per_window and gain_per_window_fair must be >= 0");
   check(clear_gain >= 0.0 && clear_gain <= 3.0, "clear_gain must be in [0, 3] (0 = no cap)");
+  check(in01(min_hits), "min_hits must be in [0, 1] (0 = never)");
   check(in01(insert_min_agreement), "insert_min_agreement must be in [0, 1]");
   check(in01(settled_agreement), "settled_agreement must be in [0, 1]");
   check(in01(settled_known), "settled_known must be in [0, 1]");
@@ -54,6 +55,14 @@ double gain_needed(const RecoveryConfig& config, bool weak, double d) {
   const double needed = weak ? config.min_gain + config.gain_per_window * d
                              : config.min_gain_fair + config.gain_per_window_fair * d;
   return config.clear_gain > 0.0 ? std::min(needed, config.clear_gain) : needed;
+}
+
+bool overlaps_enough(const RecoveryConfig& config, const FitnessValue& recovered,
+                     const FitnessValue& tracked) {
+  if (recovered.known_share() >= config.min_known) return true;
+  return config.min_hits > 0.0 && recovered.n_points > 0 &&
+         recovered.n_hit >= config.min_hits * recovered.n_points &&
+         recovered.n_hit >= 2 * tracked.n_hit;
 }
 
 namespace {

@@ -140,6 +140,29 @@ TEST(Recovery, TheGainAJumpNeedsGrowsWithItsLengthUpToAClearGain) {
   expect_refused(c, "slam.recovery_clear_gain");
 }
 
+TEST(Recovery, AFewKnownEndPointsDoWhenTheyExplainMoreOfTheScan) {
+  RecoveryConfig c;  // min_known 0.3, min_hits 0.1
+  auto value = [](int hit, int known) {
+    FitnessValue v;
+    v.n_points = 181;
+    v.n_hit = hit;
+    v.n_known = known;
+    return v;
+  };
+  const FitnessValue lost = value(0, 74);  // 41 % known, none on hits
+  // 30 % known: enough whatever the hits.
+  EXPECT_TRUE(overlaps_enough(c, value(10, 55), lost));
+  // A turn in place into new space (the simulated robot of sim.sim_slam_test): 21 % known,
+  // 35 hits.
+  EXPECT_TRUE(overlaps_enough(c, value(35, 38), lost));
+  EXPECT_FALSE(overlaps_enough(c, value(17, 38), lost));           // under 10 % on hits
+  EXPECT_FALSE(overlaps_enough(c, value(35, 38), value(18, 74)));  // not twice the tracked's
+  c.min_hits = 0.0;
+  EXPECT_FALSE(overlaps_enough(c, value(35, 38), lost));
+  c.min_hits = 1.5;
+  expect_refused(c, "slam.recovery_min_hits");
+}
+
 /// Scans along a path in the room, every `every`-th kept: the SLAM's pose error at the end.
 double slam_error(bool recovery, int every, std::size_t* recovered = nullptr) {
   const auto world = asymmetric_room();

@@ -96,6 +96,13 @@ struct RecoveryConfig {
   /// consistent, refused against 0.83 needed; docs/slam.md item 7). A weak tracked pose needs
   /// less (0.35 at the window's edge). 0 = no cap.
   double clear_gain = 0.5;
+  /// A recovered pose needs min_known of its end points on observed cells, unless at least
+  /// this share of them fall on cells with hits and at least twice as many as at the tracked
+  /// pose: a turn in place the prediction missed shows mostly new space while the map holds
+  /// one or a few scans (a simulated robot at 1 scan/s turning 60 deg before it drives: the
+  /// true pose 21 % known, 92 % of those hits, the tracked pose none; docs/slam.md item 7).
+  /// 0 = never.
+  double min_hits = 0.1;
   /// Slam: a scan whose final agreement stays below this (with min_known observed) is not
   /// written into the map. 0 = every scan the insertion rule picks is written.
   double insert_min_agreement = 0.5;
@@ -123,6 +130,12 @@ bool weak_match(const RecoveryConfig& config, const FitnessValue& v);
 /// gain_per_window * d for a weak tracked pose, the *_fair ones for a fair one, at most
 /// clear_gain (when > 0).
 double gain_needed(const RecoveryConfig& config, bool weak, double d);
+
+/// Whether a recovered pose's view overlaps the map enough to replace the tracked one:
+/// config.min_known of its end points on observed cells, or config.min_hits of them on cells
+/// with hits and at least twice as many as `tracked` has.
+bool overlaps_enough(const RecoveryConfig& config, const FitnessValue& recovered,
+                     const FitnessValue& tracked);
 
 struct RecoveryResult {
   EsResult result;            ///< the pose found and its fitness terms (tracking's fitness)
