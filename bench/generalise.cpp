@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <map>
 #include <mutex>
@@ -14,6 +15,8 @@
 #include "app/slam_params.hpp"
 #include "app/summary.hpp"
 #include "esfleet/core/file_io.hpp"
+#include "esfleet/sim/fleet.hpp"
+#include "esfleet/sim/world.hpp"
 #include "generalise_data.hpp"
 #include "parallel_for.hpp"
 
@@ -62,8 +65,39 @@ std::vector<Relation> read_rel(const std::string& path) {
   return relations;
 }
 
+/// A simulated log (evaluation data only: the SLAM gets its scans through slam_input): the
+/// robot of simulation seed `seed` in `world`, one scan per second at up to 1 m/s for
+/// `duration_s`, 181 beams over 180 degrees, 30 m range. Every scan's reference pose is the
+/// truth, and so is its odometry field (the source of the noisy odometry, as the corrected
+/// poses are for fr079). No hand-made relations.
+GeneraliseLog make_simulated_log(const sim::World& world, std::uint64_t seed, double duration_s,
+                                 const std::string& world_path) {
+  sim::FleetConfig fc;
+  fc.seed = seed;
+  fc.rate = 1.0;
+  fc.motion.speed = 1.0;
+  fc.start_stamp = 1000.0;
+  sim::Fleet fleet(world, fc);
+  GeneraliseLog log;
+  log.name = "sim-" + std::to_string(seed);
+  log.path = world_path;
+  const auto ticks = static_cast<std::size_t>(std::floor(duration_s * fc.rate));
+  for (std::size_t i = 0; i < ticks; ++i) {
+    const sim::RobotSample& s = fleet.tick().front();
+    LaserScan scan = s.scan;
+    scan.odometry = s.truth.pose;
+    log.scans.push_back(std::move(scan));
+    log.reference.emplace_back(s.truth.pose);
+    log.match_index.push_back(i);
+  }
+  return log;
+}
+
+bool is_simulated(const GeneraliseLog& log) { return log.name.rfind("sim-", 0) == 0; }
+
 /// The logs asked for, in the order of --logs.
-std::vector<GeneraliseLog> load_logs(const GeneraliseOptions& o) {
+std::vector<GeneraliseLog> load_logs(const GeneraliseOptions& o,
+                                     const std::vector<std::uint64_t>& sim_seeds) {
   const std::string csail_raw = o.data_dir + "/mit-csail/mit-csail.clf.gz";
   const std::string csail_keys = o.data_dir + "/mit-csail/csail-corrected.log.gz";
   const std::string csail_rel = o.data_dir + "/mit-csail/mit-csail.relations";
@@ -72,8 +106,9 @@ std::vector<GeneraliseLog> load_logs(const GeneraliseOptions& o) {
 
   std::vector<LaserScan> raw, keys;
   std::vector<std::size_t> key_index;
-  const bool need_csail =
-      std::any_of(o.logs.begin(), o.logs.end(), [](const std::string& l) { return l != "fr079"; });
+  const bool need_csail = std::any_of(o.logs.begin(), o.logs.end(), [](const std::string& l) {
+    return l == "csail" || l == "csail-keys";
+  });
   if (need_csail) {
     raw = read_log(csail_raw, o.reader);
     keys = read_log(csail_keys, o.reader);
@@ -89,6 +124,12 @@ std::vector<GeneraliseLog> load_logs(const GeneraliseOptions& o) {
         for (const LaserScan& s : keys) key_poses.push_back(s.odometry.value_or(Pose2{}));
         logs.push_back(
             make_raw_log_with_keys(raw, key_index, key_poses, read_rel(csail_rel), csail_raw));
+      } else if (name == "sim") {
+        const std::string world_path = o.data_dir + "/worlds/mit-csail/map.yaml";
+        const sim::World world = sim::load_world(world_path);
+        for (const std::uint64_t seed : sim_seeds) {
+          logs.push_back(make_simulated_log(world, seed, o.sim_duration_s, world_path));
+        }
       } else {
         std::vector<LaserScan> scans = read_log(fr079, o.reader);
         logs.push_back(make_corrected_log(std::move(scans), read_rel(fr079_rel), kFr079TimeOffset,
@@ -209,17 +250,29 @@ std::string cell(const Range& r) {
 void add_generalise_options(CLI::App& cmd, GeneraliseOptions& o) {
   cmd.add_option("--data-dir", o.data_dir,
                  "the directory holding mit-csail/ (mit-csail.clf.gz, csail-corrected.log.gz, "
-                 "mit-csail.relations) and fr079/ (fr079-corrected.log.gz, fr079.relations)")
+                 "mit-csail.relations), fr079/ (fr079-corrected.log.gz, fr079.relations) and "
+                 "worlds/mit-csail/map.yaml (--logs sim)")
       ->capture_default_str();
   cmd.add_option("--logs", o.logs,
                  "logs to run: csail-keys (the 406 key scans of csail-corrected.log.gz), csail "
-                 "(mit-csail.clf.gz), fr079 (comma-separated)")
+                 "(mit-csail.clf.gz), fr079, sim (simulated, one log per --sim-seeds; "
+                 "comma-separated)")
       ->delimiter(',')
-      ->check(CLI::IsMember({"csail-keys", "csail", "fr079"}))
+      ->check(CLI::IsMember({"csail-keys", "csail", "fr079", "sim"}))
+      ->capture_default_str();
+  cmd.add_option("--sim-seeds", o.sim_seeds,
+                 "--logs sim: one log per simulation seed (1-4, 1,2,3 or a mix): a robot driving "
+                 "to random goals in data/worlds/mit-csail at up to 1 m/s, one 181-beam 1 deg "
+                 "scan per second (a key-scan log), scored against its true poses")
+      ->capture_default_str();
+  cmd.add_option("--sim-duration", o.sim_duration_s,
+                 "--logs sim: seconds of each simulated log (as many scans)")
+      ->check(CLI::Range(2.0, 36000.0))
       ->capture_default_str();
   cmd.add_option("--ks", o.ks,
                  "keep every k-th scan of csail and fr079, for each k given (comma-separated; "
-                 "default csail 1,2,3,4,5 and fr079 1,2,4,6,8); csail-keys always runs whole")
+                 "default csail 1,2,3,4,5 and fr079 1,2,4,6,8); csail-keys and sim always run "
+                 "whole")
       ->delimiter(',')
       ->check(CLI::Range(1, 1000));
   cmd.add_option("--modes", o.modes,
@@ -279,11 +332,17 @@ int run_generalise(GeneraliseOptions& o) {
     throw app::UsageError(std::string("--") + e.what());
   }
 
-  const std::vector<GeneraliseLog> logs = load_logs(o);
+  std::vector<std::uint64_t> sim_seeds;
+  try {
+    sim_seeds = parse_seed_list(o.sim_seeds);
+  } catch (const std::invalid_argument& e) {
+    throw app::UsageError(std::string("--sim-seeds: ") + e.what());
+  }
+  const std::vector<GeneraliseLog> logs = load_logs(o, sim_seeds);
   std::vector<RunSpec> specs;
   for (std::size_t l = 0; l < logs.size(); ++l) {
     std::vector<std::size_t> ks = {1};
-    if (logs[l].name != "csail-keys") {
+    if (logs[l].name != "csail-keys" && !is_simulated(logs[l])) {
       ks = !o.ks.empty() ? o.ks : logs[l].name == "fr079" ? kFr079Ks : kCsailKs;
     }
     for (std::size_t k : ks) {

@@ -3,7 +3,8 @@
 // the SLAM over the MIT CSAIL key-scan log (406 scans), the raw CSAIL log and fr079 kept every
 // k-th scan, laser only and with noisy odometry, over several seeds, and scores each run on the
 // Kümmerle relations whose both ends were kept and on relations derived from the reference poses
-// (docs/benchmarks.md, "Generalisation"). One JSON file, one markdown table on stdout.
+// (docs/benchmarks.md, "Generalisation"); optionally over simulated key-scan-like logs whose
+// reference is the simulation's truth. One JSON file, one markdown table on stdout.
 #include <CLI/CLI.hpp>
 #include <cstdint>
 #include <string>
@@ -24,6 +25,10 @@ struct GeneraliseOptions {
   std::vector<std::size_t> ks;
   std::vector<std::string> modes = {"laser", "odom"};
   std::string seeds = "1-5";
+  /// The simulated logs (--logs sim): one per simulation seed, each duration_s of a robot at up
+  /// to 1 m/s scanning once a second in the MIT CSAIL world, scored against its true poses.
+  std::string sim_seeds = "1-4";
+  double sim_duration_s = 400.0;
   std::size_t max_scans = 0;  ///< at most this many scans per run, after subsampling (0 = all)
   std::size_t beam_step = 1;  ///< every run's scans keep every beam_step-th beam (keep_every_beam)
   int jobs = 1;               ///< runs in parallel (the scores do not depend on it)
