@@ -185,6 +185,10 @@ void add_slam_params(ParamTable& t, SlamConfig* s, CarmenReaderOptions* r) {
                "a recovered pose with under 30 % of its end points on observed cells is still "
                "taken with at least this share of them on hits, and twice the tracked pose's "
                "(a missed turn in place into new space; 0 = never)");
+  t.add_int("recovery_tolerance", &s->recovery.tolerance,
+            "judging a recovered pose, an end point within this many cells of a cell with hits "
+            "counts as on it (beams grazing a wall clear the cells along its face; 0 = its own "
+            "cell only)");
   t.add_double("recovery_window_min_scale", &s->recovery.window_min_scale,
                "the recovery window shrinks with the largest of the last 5 inter-scan motions "
                "(1 m or 45 degrees = the whole window), to at least this share of it");

@@ -23,6 +23,7 @@ void RecoveryConfig::validate() const {
         "gain_per_window and gain_per_window_fair must be >= 0");
   check(clear_gain >= 0.0 && clear_gain <= 3.0, "clear_gain must be in [0, 3] (0 = no cap)");
   check(in01(min_hits), "min_hits must be in [0, 1] (0 = never)");
+  check(tolerance >= 0 && tolerance <= 3, "tolerance must be in [0, 3] cells");
   check(in01(insert_min_agreement), "insert_min_agreement must be in [0, 1]");
   check(in01(settled_agreement), "settled_agreement must be in [0, 1]");
   check(in01(settled_known), "settled_known must be in [0, 1]");
@@ -164,7 +165,8 @@ std::vector<Scored> best_distinct(std::vector<Scored> all, std::size_t keep, dou
 
 }  // namespace
 
-Consistency consistency(const GridMap& map, const ScanPoints& points, const Pose2& pose) {
+Consistency consistency(const GridMap& map, const ScanPoints& points, const Pose2& pose,
+                        int tolerance) {
   Consistency out;
   const std::size_t n = points.size();
   if (n == 0) return out;
@@ -173,10 +175,21 @@ Consistency consistency(const GridMap& map, const ScanPoints& points, const Pose
   const double inv_cell = 1.0 / map.cell_size();
   const double c = std::cos(pose.theta), s = std::sin(pose.theta);
   const double ox = pose.x * inv_cell, oy = pose.y * inv_cell;
-  auto score_at = [&](double x, double y) {
-    const auto cx = static_cast<std::int32_t>(std::floor(x));
-    const auto cy = static_cast<std::int32_t>(std::floor(y));
+  auto score_cell = [&](std::int32_t cx, std::int32_t cy) {
     return lookup.tile(a.slot(cx, cy))[a.offset(cx, cy)];
+  };
+  auto score_at = [&](double x, double y) {
+    return score_cell(static_cast<std::int32_t>(std::floor(x)),
+                      static_cast<std::int32_t>(std::floor(y)));
+  };
+  // A cell with hits within `tolerance` cells of (cx, cy).
+  auto hit_near = [&](std::int32_t cx, std::int32_t cy) {
+    for (std::int32_t dy = -tolerance; dy <= tolerance; ++dy) {
+      for (std::int32_t dx = -tolerance; dx <= tolerance; ++dx) {
+        if (score_cell(cx + dx, cy + dy) > 0.0f) return true;
+      }
+    }
+    return false;
   };
   // A beam looks through a wall when a cell more than `margin` cells before its end point was
   // seen occupied more often than free.
@@ -185,9 +198,12 @@ Consistency consistency(const GridMap& map, const ScanPoints& points, const Pose
   for (std::size_t i = 0; i < n; ++i) {
     const double ex = points.x[i] * inv_cell, ey = points.y[i] * inv_cell;
     const double wx = ox + c * ex - s * ey, wy = oy + s * ex + c * ey;
-    const float v = score_at(wx, wy);
-    hit += v > 0.0f;
-    free += v == 0.0f;
+    const auto cx = static_cast<std::int32_t>(std::floor(wx));
+    const auto cy = static_cast<std::int32_t>(std::floor(wy));
+    const float v = score_cell(cx, cy);
+    const bool on_hit = v > 0.0f || (tolerance > 0 && hit_near(cx, cy));
+    hit += on_hit;
+    free += !on_hit && v == 0.0f;
     const double len = std::hypot(ex, ey);
     const int steps = static_cast<int>(len - kMargin);
     if (steps <= 1) continue;
@@ -331,7 +347,7 @@ RecoveryResult recover_pose(const RecoveryConfig& config, const TrackingConfig& 
   float best_score = -10.0f;
   for (const Scored& f : fine) {
     const EsResult r = refine_pose(fine_eval, f.pose, map.cell_size(), step_theta / 3.0, 0.005);
-    const float sc = consistency(map, points, r.pose).score();
+    const float sc = consistency(map, points, r.pose, config.tolerance).score();
     if (sc > best_score) {
       best_score = sc;
       start = r.pose;

@@ -297,8 +297,8 @@ void Slam::recover(const LaserScan& scan, const ScanPoints& points, const Motion
                                         {predicted.x, predicted.y, motion.last.pose.theta});
   // The farther the jump from the tracked pose (relative to the window), the clearer its gain
   // in consistency must be.
-  const float gain = consistency(map_, points, r.result.pose).score() -
-                     consistency(map_, points, step.pose).score();
+  const float gain = consistency(map_, points, r.result.pose, rc.tolerance).score() -
+                     consistency(map_, points, step.pose, rc.tolerance).score();
   const Pose2 jump = r.result.pose.relative_to(step.pose);
   const double d = std::hypot(jump.x, jump.y) / scaled.window_xy +
                    std::abs(jump.theta) / deg_to_rad(scaled.window_theta_deg);

@@ -56,8 +56,8 @@ TEST(Recovery, OutsideTheWindowItFindsNothingBetter) {
   Rng rng(7);
   const RecoveryResult r = recover_pose(config, tracking, es, rng, map, points, predicted);
   EXPECT_GT(std::hypot(r.result.pose.x - truth.x, r.result.pose.y - truth.y), 1.0);
-  EXPECT_LT(consistency(map, points, r.result.pose).score(),
-            consistency(map, points, truth).score() - 0.2f);
+  EXPECT_LT(consistency(map, points, r.result.pose, config.tolerance).score(),
+            consistency(map, points, truth, config.tolerance).score() - 0.2f);
 }
 
 TEST(Recovery, ConsistencySeesBeamsThroughWalls) {
@@ -65,19 +65,55 @@ TEST(Recovery, ConsistencySeesBeamsThroughWalls) {
   const GridMap map = map_of(world, 12, 8);
   const Pose2 truth{6.0, 3.2, deg_to_rad(20.0)};
   const ScanPoints points = prepare_scan(make_scan(world, truth));
-  const Consistency at_truth = consistency(map, points, truth);
-  EXPECT_GT(at_truth.evidence, 0.9f);
-  EXPECT_LT(at_truth.see_through, 0.02f);
-  EXPECT_LT(at_truth.contradiction, 0.05f);
-  // Turned by 90 degrees the beams run through the room's walls.
-  const Pose2 turned{truth.x, truth.y, truth.theta + deg_to_rad(90.0)};
-  const Consistency wrong = consistency(map, points, turned);
-  EXPECT_GT(wrong.see_through, 0.2f);
-  EXPECT_LT(wrong.score(), at_truth.score() - 0.5f);
-  // Nothing known: zero evidence, nothing contradicts.
-  const Consistency empty = consistency(GridMap{}, points, truth);
-  EXPECT_EQ(empty.evidence, 0.0f);
-  EXPECT_EQ(empty.see_through, 0.0f);
+  for (const int tolerance : {0, 1}) {
+    SCOPED_TRACE("tolerance " + std::to_string(tolerance));
+    const Consistency at_truth = consistency(map, points, truth, tolerance);
+    EXPECT_GT(at_truth.evidence, 0.9f);
+    EXPECT_LT(at_truth.see_through, 0.02f);
+    EXPECT_LT(at_truth.contradiction, 0.05f);
+    // Turned by 90 degrees the beams run through the room's walls.
+    const Pose2 turned{truth.x, truth.y, truth.theta + deg_to_rad(90.0)};
+    const Consistency wrong = consistency(map, points, turned, tolerance);
+    EXPECT_GT(wrong.see_through, 0.2f);
+    EXPECT_LT(wrong.score(), at_truth.score() - 0.5f);
+    // Nothing known: zero evidence, nothing contradicts.
+    const Consistency empty = consistency(GridMap{}, points, truth, tolerance);
+    EXPECT_EQ(empty.evidence, 0.0f);
+    EXPECT_EQ(empty.see_through, 0.0f);
+  }
+}
+
+// A wall seen from afar along a corridor: its hits lie in one row of cells, and the beams that
+// grazed it cleared the row in front (as on the key-scan log at key scan 155). End points in
+// that row are next to the wall, not in free space.
+TEST(Recovery, EndPointsNextToAWallAreEvidenceWithinTheTolerance) {
+  GridMap map;
+  const double cell = map.cell_size();
+  for (std::int32_t x = 0; x < 100; ++x) {
+    for (int k = 0; k < 3; ++k) map.add_hit({x, 40});           // the wall: y in [2.00, 2.05)
+    for (std::int32_t y = 0; y < 40; ++y) map.add_err({x, y});  // free up to its face
+  }
+  map.commit_update();
+  // End points along the wall, in the free row in front of it, seen from (0, 1.0).
+  ScanPoints points;
+  for (int i = 0; i < 40; ++i) {
+    const double x = 0.5 + i * 0.1, y = 39.5 * cell - 1.0;
+    points.x.push_back(static_cast<float>(x));
+    points.y.push_back(static_cast<float>(y));
+    points.range.push_back(static_cast<float>(std::hypot(x, y)));
+  }
+  const Pose2 pose{0.0, 1.0, 0.0};
+  const Consistency exact = consistency(map, points, pose, 0);
+  EXPECT_EQ(exact.evidence, 0.0f);
+  EXPECT_EQ(exact.contradiction, 1.0f);
+  const Consistency near = consistency(map, points, pose, 1);
+  EXPECT_EQ(near.evidence, 1.0f);
+  EXPECT_EQ(near.contradiction, 0.0f);
+  // Two cells short of the wall is free space for a tolerance of one cell.
+  const Consistency short_of_it = consistency(map, points, {0.0, 1.0 - cell, 0.0}, 1);
+  EXPECT_EQ(short_of_it.evidence, 0.0f);
+  EXPECT_EQ(short_of_it.contradiction, 1.0f);
+  EXPECT_EQ(near.see_through, 0.0f);
 }
 
 TEST(Recovery, WeakMatchNeedsKnownEndPoints) {
@@ -161,6 +197,15 @@ TEST(Recovery, AFewKnownEndPointsDoWhenTheyExplainMoreOfTheScan) {
   EXPECT_FALSE(overlaps_enough(c, value(35, 38), lost));
   c.min_hits = 1.5;
   expect_refused(c, "slam.recovery_min_hits");
+}
+
+TEST(Recovery, ToleranceOutsideItsRangeIsRefused) {
+  RecoveryConfig c;
+  EXPECT_EQ(c.tolerance, 1);
+  c.tolerance = -1;
+  expect_refused(c, "slam.recovery_tolerance");
+  c.tolerance = 4;
+  expect_refused(c, "slam.recovery_tolerance");
 }
 
 /// Scans along a path in the room, every `every`-th kept: the SLAM's pose error at the end.

@@ -103,6 +103,13 @@ struct RecoveryConfig {
   /// true pose 21 % known, 92 % of those hits, the tracked pose none; docs/slam.md item 7).
   /// 0 = never.
   double min_hits = 0.1;
+  /// Consistency: an end point within this many cells of a cell with hits counts as evidence,
+  /// not as a contradiction (0 = its own cell only). Beams that graze a wall clear the cells
+  /// along its face, so a true pose along a corridor seen from afar puts many end points on
+  /// free cells next to the wall's hits and loses to a pose slid back along it, whose end
+  /// points land where the wall was seen head-on (key-scan log, key scan 155; docs/slam.md
+  /// item 7).
+  int tolerance = 1;
   /// Slam: a scan whose final agreement stays below this (with min_known observed) is not
   /// written into the map. 0 = every scan the insertion rule picks is written.
   double insert_min_agreement = 0.5;
@@ -111,7 +118,8 @@ struct RecoveryConfig {
 };
 
 /// How consistent a scan at a pose is with the map, over all its end points: the share on
-/// cells with hits (evidence), minus the share on known free cells (contradiction), minus the
+/// cells with hits or within `tolerance` cells of one (evidence), minus the share on known
+/// free cells with no hit that near (contradiction), minus the
 /// share of beams that pass through a cell seen occupied more often than free before their end
 /// (see-through: a wrong pose in a symmetric place looks through walls). In [-2, 1].
 struct Consistency {
@@ -120,7 +128,8 @@ struct Consistency {
   float see_through = 0.0f;
   float score() const { return evidence - contradiction - see_through; }
 };
-Consistency consistency(const GridMap& map, const ScanPoints& points, const Pose2& pose);
+Consistency consistency(const GridMap& map, const ScanPoints& points, const Pose2& pose,
+                        int tolerance);
 
 /// True when `v` is a weak match by `config` (see RecoveryConfig::weak_agreement).
 bool weak_match(const RecoveryConfig& config, const FitnessValue& v);
