@@ -291,4 +291,18 @@ KeptDerived score_kept_derived(const GeneraliseLog& log, const std::vector<std::
   return out;
 }
 
+std::optional<KeptDerived> score_derived_floor(const GeneraliseLog& log,
+                                               const std::vector<std::size_t>& kept,
+                                               const std::vector<Pose2>& dense,
+                                               const std::vector<std::size_t>& gaps) {
+  std::vector<Pose2> at_kept;
+  at_kept.reserve(kept.size());
+  for (const std::size_t i : kept) {
+    const std::size_t d = log.match_index.at(i);
+    if (d >= dense.size()) return std::nullopt;
+    at_kept.push_back(dense[d]);
+  }
+  return score_kept_derived(log, kept, at_kept, gaps);
+}
+
 }  // namespace esfleet::bench

@@ -116,4 +116,16 @@ KeptDerived score_kept_derived(const GeneraliseLog& log, const std::vector<std::
                                const std::vector<Pose2>& estimate,
                                const std::vector<std::size_t>& gaps);
 
+/// The floor of that score: how a run on every scan scores on the same derived relations. The
+/// reference is GMapping's path, not the truth, so the derived score of a run that kept `kept`
+/// scans of `log` cannot rank accuracy below what the poses of a run on the whole log score
+/// there. `dense` holds one pose per scan of the log `log.match_index` points into (the log
+/// itself, or the raw log a key-scan log was taken from), from the first; the poses at the kept
+/// scans are scored as score_kept_derived scores a run. nullopt if a kept scan's index is past
+/// the end of `dense` (a run capped by --max-scans).
+std::optional<KeptDerived> score_derived_floor(const GeneraliseLog& log,
+                                               const std::vector<std::size_t>& kept,
+                                               const std::vector<Pose2>& dense,
+                                               const std::vector<std::size_t>& gaps);
+
 }  // namespace esfleet::bench

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -143,6 +144,36 @@ TEST(MakeRawLogWithKeys, ReferencePosesOnlyOnKeyScans) {
   EXPECT_EQ(d.result.gaps[0].count, 1u);
   EXPECT_EQ(d.result.gaps[1].count, 0u);
   EXPECT_NEAR(d.result.trans_mean, 0.5, 1e-12);
+}
+
+TEST(ScoreDerivedFloor, TheRunOnEveryScanAtTheKeptScansScoredAsTheRunIs) {
+  // A corrected log of 10 scans 1 m apart; the run on every scan is 5 % long per step.
+  std::vector<LaserScan> scans(10);
+  std::vector<Pose2> dense;
+  for (std::size_t i = 0; i < scans.size(); ++i) {
+    scans[i].stamp = static_cast<double>(i);
+    scans[i].odometry = Pose2{static_cast<double>(i), 0.0, 0.0};
+    dense.push_back({1.05 * static_cast<double>(i), 0.0, 0.0});
+  }
+  const GeneraliseLog log = make_corrected_log(scans, {}, 0.0, "test", "test.log");
+  // Every 3rd scan (0 3 6 9): gap 1 = 3 m, 0.15 m off; gap 2 = 6 m, 0.3 m off.
+  const std::vector<std::size_t> kept = subsample_indices(10, 3);
+  const std::optional<KeptDerived> floor = score_derived_floor(log, kept, dense, {1, 2});
+  ASSERT_TRUE(floor);
+  EXPECT_EQ(floor->reference_scans, 4u);
+  EXPECT_EQ(floor->result.gaps[0].count, 3u);
+  EXPECT_NEAR(floor->result.gaps[0].trans_mean, 0.15, 1e-12);
+  EXPECT_NEAR(floor->result.gaps[1].trans_mean, 0.30, 1e-12);
+  // A run on fewer scans than the kept ones reach (--max-scans) gives no floor.
+  const std::vector<Pose2> short_run(dense.begin(), dense.begin() + 8);
+  EXPECT_FALSE(score_derived_floor(log, kept, short_run, {1}));
+  // A key-scan log: its scans are raw scans 1, 4 and 8; the floor reads the raw run there.
+  GeneraliseLog keys;
+  keys.reference = {Pose2{1, 0, 0}, Pose2{4, 0, 0}, Pose2{8, 0, 0}};
+  keys.match_index = {1, 4, 8};
+  const std::optional<KeptDerived> key_floor = score_derived_floor(keys, {0, 1, 2}, dense, {1});
+  ASSERT_TRUE(key_floor);
+  EXPECT_NEAR(key_floor->result.trans_mean, (0.15 + 0.2) / 2.0, 1e-12);
 }
 
 TEST(ScoreKeptRelations, AnEndOnADroppedScanIsDroppedNotMovedToANeighbour) {

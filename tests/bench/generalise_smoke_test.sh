@@ -4,6 +4,8 @@
 # table and writes JSON with the expected fields and counts; the same runs with --jobs 2 give the
 # same scores. Then a simulated log (--logs sim, simulation seed 1, 60 s: the robot turns 60 deg
 # in place before it drives) scored against its true poses, laser only and with noisy odometry.
+# Last, CSAIL whole and every 4th scan, laser only, seed 1: the every-4th run gets the floor of
+# its derived score (the whole run's poses at its scans), the whole run none.
 #
 # usage: generalise_smoke_test.sh BIN_DIR DATA_DIR
 set -euo pipefail
@@ -117,4 +119,33 @@ if errors:
     print("FAIL:\n  " + "\n  ".join(errors))
     sys.exit(1)
 print("generalise --logs sim: 2 runs within 0.10 m of the simulation's truth")
+PY
+
+"$bin/esfleet-bench" generalise --data-dir "$data" --logs csail --ks 1,4 --modes laser --seeds 1 \
+  --jobs 2 --out "$work/floor.json" >"$work/floor.md" 2>"$work/floor.err" || {
+  cat "$work/floor.err"
+  echo "FAIL: esfleet-bench generalise --logs csail --ks 1,4 exited with an error"
+  exit 1
+}
+cat "$work/floor.md"
+grep -q '^| csail | 4 | 497 | [0-9.]* (floor [0-9.]*) |' "$work/floor.md" ||
+  { echo "FAIL: no floor in the csail k=4 row"; exit 1; }
+python3 - "$work/floor.json" <<'PY'
+import json, sys
+
+runs = {r["k"]: r for r in json.load(open(sys.argv[1]))["runs"]}
+errors = []
+if sorted(runs) != [1, 4]:
+    errors.append(f"runs for k {sorted(runs)}, expected 1 and 4")
+else:
+    if runs[1]["derived_floor"] is not None:
+        errors.append(f'k=1: floor {runs[1]["derived_floor"]}, expected none (it is the floor)')
+    f, d = runs[4]["derived_floor"], runs[4]["derived"]
+    if f is None or f["count"] != d["count"] or not f["trans_mean"] > 0:
+        errors.append(f"k=4: floor {f}, expected one over the run's {d['count']} relations")
+if errors:
+    print("FAIL:\n  " + "\n  ".join(errors))
+    sys.exit(1)
+print(f'generalise floor: csail k=4 derived {runs[4]["derived"]["trans_mean"]:.3f} m, '
+      f'floor {runs[4]["derived_floor"]["trans_mean"]:.3f} m')
 PY
