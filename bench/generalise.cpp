@@ -176,6 +176,35 @@ RunResult run_one(const GeneraliseLog& log, const RunSpec& spec, const Generalis
   return r;
 }
 
+/// Each run that kept part of a log gets the floor of its derived score from the run on every
+/// scan of that log (the raw CSAIL log for the key-scan log), same mode and seed, when that run
+/// is in the set and did not fail.
+void attach_floors(const std::vector<GeneraliseLog>& logs, const std::vector<RunSpec>& specs,
+                   std::size_t max_scans, std::vector<RunResult>& results) {
+  const auto dense_log_of = [&](std::size_t l) -> std::optional<std::size_t> {
+    if (is_simulated(logs[l])) return std::nullopt;
+    const std::string dense = logs[l].name == "csail-keys" ? "csail" : logs[l].name;
+    const auto it = std::find_if(logs.begin(), logs.end(),
+                                 [&](const GeneraliseLog& x) { return x.name == dense; });
+    if (it == logs.end()) return std::nullopt;
+    return static_cast<std::size_t>(it - logs.begin());
+  };
+  for (std::size_t i = 0; i < specs.size(); ++i) {
+    const RunSpec& s = specs[i];
+    const std::optional<std::size_t> d = dense_log_of(s.log);
+    if (!results[i].error.empty() || !d || (*d == s.log && s.k == 1)) continue;
+    const auto whole = std::find_if(specs.begin(), specs.end(), [&](const RunSpec& t) {
+      return t.log == *d && t.k == 1 && t.mode == s.mode && t.seed == s.seed;
+    });
+    if (whole == specs.end()) continue;
+    const RunResult& w = results[static_cast<std::size_t>(whole - specs.begin())];
+    if (!w.error.empty()) continue;
+    const std::vector<std::size_t> kept =
+        subsample_indices(logs[s.log].scans.size(), s.k, max_scans);
+    results[i].floor = score_derived_floor(logs[s.log], kept, w.estimate, kGaps);
+  }
+}
+
 /// A statistic that is undefined without samples is null in the JSON, not 0.
 nlohmann::json stat(std::size_t n, double v) { return n > 0 ? nlohmann::json(v) : nullptr; }
 
@@ -424,31 +453,7 @@ int run_generalise(GeneraliseOptions& o) {
                  r.key_scans, r.loop_closures, r.run_s);
   });
 
-  // Floors: a run that kept part of a log against the run on every scan of it (the raw CSAIL
-  // log for the key-scan log), same mode and seed, when that run is in the set.
-  const auto dense_log_of = [&](std::size_t l) -> std::optional<std::size_t> {
-    if (is_simulated(logs[l])) return std::nullopt;
-    const std::string dense = logs[l].name == "csail-keys" ? "csail" : logs[l].name;
-    for (std::size_t d = 0; d < logs.size(); ++d) {
-      if (logs[d].name == dense) return d;
-    }
-    return std::nullopt;
-  };
-  for (std::size_t i = 0; i < specs.size(); ++i) {
-    const RunSpec& s = specs[i];
-    const std::optional<std::size_t> d = dense_log_of(s.log);
-    if (!results[i].error.empty() || !d || (*d == s.log && s.k == 1)) continue;
-    for (std::size_t j = 0; j < specs.size(); ++j) {
-      const RunSpec& t = specs[j];
-      if (t.log != *d || t.k != 1 || t.mode != s.mode || t.seed != s.seed ||
-          !results[j].error.empty()) {
-        continue;
-      }
-      const std::vector<std::size_t> kept =
-          subsample_indices(logs[s.log].scans.size(), s.k, o.max_scans);
-      results[i].floor = score_derived_floor(logs[s.log], kept, results[j].estimate, kGaps);
-    }
-  }
+  attach_floors(logs, specs, o.max_scans, results);
 
   nlohmann::json runs = nlohmann::json::array();
   std::size_t failed = 0;
