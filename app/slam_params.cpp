@@ -189,9 +189,6 @@ void add_slam_params(ParamTable& t, SlamConfig* s, CarmenReaderOptions* r) {
             "judging a recovered pose, an end point within this many cells of a cell with hits "
             "counts as on it (beams grazing a wall clear the cells along its face; 0 = its own "
             "cell only)");
-  t.add_switch("recovery_within_window", &s->recovery.within_window,
-               "a recovered pose turned beyond the headings the recovery window searched (the "
-               "ES left it) is not taken");
   t.add_double("recovery_window_min_scale", &s->recovery.window_min_scale,
                "the recovery window shrinks with the largest of the last 5 inter-scan motions "
                "(1 m or 45 degrees = the whole window), to at least this share of it");

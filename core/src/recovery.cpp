@@ -359,10 +359,6 @@ RecoveryResult recover_pose(const RecoveryConfig& config, const TrackingConfig& 
   if (tracking.refine) {
     out.result = refine_pose(fine_eval, out.result.pose, 0.02, deg_to_rad(0.5), 0.001);
   }
-  const bool whole_circle = lo == -kPi;
-  out.beyond_window =
-      !whole_circle &&
-      std::abs(normalize_angle(out.result.pose.theta - centre.theta)) > half + 2.0 * step_theta;
   return out;
 }
 

@@ -302,9 +302,7 @@ void Slam::recover(const LaserScan& scan, const ScanPoints& points, const Motion
   const Pose2 jump = r.result.pose.relative_to(step.pose);
   const double d = std::hypot(jump.x, jump.y) / scaled.window_xy +
                    std::abs(jump.theta) / deg_to_rad(scaled.window_theta_deg);
-  const bool within = !rc.within_window || !r.beyond_window;
-  if (within && overlaps_enough(rc, r.result.value, step.fitness) &&
-      gain >= gain_needed(rc, weak, d)) {
+  if (overlaps_enough(rc, r.result.value, step.fitness) && gain >= gain_needed(rc, weak, d)) {
     step.recovered = true;
     step.pose = r.result.pose;
     step.fitness = r.result.value;

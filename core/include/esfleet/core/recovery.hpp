@@ -110,12 +110,6 @@ struct RecoveryConfig {
   /// points land where the wall was seen head-on (key-scan log, key scan 155; docs/slam.md
   /// item 7).
   int tolerance = 1;
-  /// Slam: a recovered pose that the ES finished turned beyond the headings the search scored
-  /// (RecoveryResult::beyond_window) is not taken. The window is the largest turn since the last
-  /// scan the search allows for; past its edge the ES follows a fit the search never weighed
-  /// against the others (key-scan log, key scan 217 of seed 5: a 112 deg turn where the robot
-  /// turned 23 deg, the scan's one wall laid on a corridor's; docs/slam.md item 7).
-  bool within_window = true;
   /// Slam: a scan whose final agreement stays below this (with min_known observed) is not
   /// written into the map. 0 = every scan the insertion rule picks is written.
   double insert_min_agreement = 0.5;
@@ -156,10 +150,6 @@ struct RecoveryResult {
   EsResult result;            ///< the pose found and its fitness terms (tracking's fitness)
   std::vector<Pose2> coarse;  ///< the distinct coarse candidates, best first (diagnostics)
   int coarse_poses = 0;       ///< poses scored in the coarse stage
-  /// The result's heading is farther from the centre's than the window's +-window_theta plus
-  /// two coarse heading steps (the grid's last step and the fine stage's reach around it):
-  /// the ES left the headings the search scored. Never when the window covers the circle.
-  bool beyond_window = false;
 };
 
 /// The correlative search around `centre` (Slam: the predicted position with the previous
