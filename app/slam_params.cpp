@@ -178,6 +178,9 @@ void add_slam_params(ParamTable& t, SlamConfig* s, CarmenReaderOptions* r) {
                "a large motion)");
   t.add_double("recovery_gain_per_window_fair", &s->recovery.gain_per_window_fair,
                "... see recovery_min_gain_fair");
+  t.add_double("recovery_fair_short_jump", &s->recovery.fair_short_jump,
+               "... but a jump of at most this share of the motion predicted since the last "
+               "scan needs only recovery_min_gain's gain (0 = the fair gains for every jump)");
   t.add_double("recovery_clear_gain", &s->recovery.clear_gain,
                "a recovered pose at least this much more consistent than the tracked one "
                "replaces it however far the jump (0 = no cap)");

@@ -19,6 +19,8 @@ void RecoveryConfig::validate() const {
   check(in01(min_known), "min_known must be in [0, 1]");
   check(in01(lost_view_known), "lost_view_known must be in [0, 1]");
   check(in01(min_gain) && in01(min_gain_fair), "min_gain and min_gain_fair must be in [0, 1]");
+  check(fair_short_jump >= 0.0 && std::isfinite(fair_short_jump),
+        "fair_short_jump must be a finite number >= 0");
   check(gain_per_window >= 0.0 && gain_per_window_fair >= 0.0,
         "gain_per_window and gain_per_window_fair must be >= 0");
   check(clear_gain >= 0.0 && clear_gain <= 3.0, "clear_gain must be in [0, 3] (0 = no cap)");
@@ -56,6 +58,10 @@ double gain_needed(const RecoveryConfig& config, bool weak, double d) {
   const double needed = weak ? config.min_gain + config.gain_per_window * d
                              : config.min_gain_fair + config.gain_per_window_fair * d;
   return config.clear_gain > 0.0 ? std::min(needed, config.clear_gain) : needed;
+}
+
+bool judged_as_weak(const RecoveryConfig& config, bool weak, double jump_xy, double moved) {
+  return weak || jump_xy <= config.fair_short_jump * moved;
 }
 
 bool overlaps_enough(const RecoveryConfig& config, const FitnessValue& recovered,

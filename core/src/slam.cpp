@@ -302,7 +302,9 @@ void Slam::recover(const LaserScan& scan, const ScanPoints& points, const Motion
   const Pose2 jump = r.result.pose.relative_to(step.pose);
   const double d = std::hypot(jump.x, jump.y) / scaled.window_xy +
                    std::abs(jump.theta) / deg_to_rad(scaled.window_theta_deg);
-  if (overlaps_enough(rc, r.result.value, step.fitness) && gain >= gain_needed(rc, weak, d)) {
+  const bool as_weak = judged_as_weak(rc, weak, std::hypot(jump.x, jump.y),
+                                      std::hypot(motion_step.x, motion_step.y));
+  if (overlaps_enough(rc, r.result.value, step.fitness) && gain >= gain_needed(rc, as_weak, d)) {
     step.recovered = true;
     step.pose = r.result.pose;
     step.fitness = r.result.value;

@@ -176,6 +176,23 @@ TEST(Recovery, TheGainAJumpNeedsGrowsWithItsLengthUpToAClearGain) {
   expect_refused(c, "slam.recovery_clear_gain");
 }
 
+TEST(Recovery, AFairPosesShortJumpNeedsOnlyAWeakOnesGain) {
+  RecoveryConfig c;  // fair_short_jump 1
+  // Key-scan log, key scan 200: a fair tracked pose 0.39 m off after a 1.04 m step.
+  EXPECT_TRUE(judged_as_weak(c, false, 0.39, 1.04));
+  EXPECT_TRUE(judged_as_weak(c, false, 1.04, 1.04));
+  // CSAIL scan 1006: a 0.36 m jump after a 0.23 m step keeps the fair gains.
+  EXPECT_FALSE(judged_as_weak(c, false, 0.36, 0.23));
+  c.fair_short_jump = 0.5;
+  EXPECT_FALSE(judged_as_weak(c, false, 0.6, 1.04));
+  EXPECT_TRUE(judged_as_weak(c, true, 0.36, 0.23));   // a weak pose is weak
+  EXPECT_FALSE(judged_as_weak(c, false, 0.01, 0.0));  // no motion predicted: any jump is long
+  c.fair_short_jump = 0.0;                            // off: the fair gains for every jump
+  EXPECT_FALSE(judged_as_weak(c, false, 0.01, 1.0));
+  c.fair_short_jump = -0.5;
+  expect_refused(c, "slam.recovery_fair_short_jump");
+}
+
 TEST(Recovery, AFewKnownEndPointsDoWhenTheyExplainMoreOfTheScan) {
   RecoveryConfig c;  // min_known 0.3, min_hits 0.1
   auto value = [](int hit, int known) {
