@@ -300,10 +300,10 @@ void Slam::recover(const LaserScan& scan, const ScanPoints& points, const Motion
   const float gain = consistency(map_, points, r.result.pose, rc.tolerance).score() -
                      consistency(map_, points, step.pose, rc.tolerance).score();
   const Pose2 jump = r.result.pose.relative_to(step.pose);
-  const double d = std::hypot(jump.x, jump.y) / scaled.window_xy +
-                   std::abs(jump.theta) / deg_to_rad(scaled.window_theta_deg);
-  const bool as_weak = judged_as_weak(rc, weak, std::hypot(jump.x, jump.y),
-                                      std::hypot(motion_step.x, motion_step.y));
+  const double jump_xy = std::hypot(jump.x, jump.y);
+  const double d =
+      jump_xy / scaled.window_xy + std::abs(jump.theta) / deg_to_rad(scaled.window_theta_deg);
+  const bool as_weak = judged_as_weak(rc, weak, jump_xy, std::hypot(motion_step.x, motion_step.y));
   if (overlaps_enough(rc, r.result.value, step.fitness) && gain >= gain_needed(rc, as_weak, d)) {
     step.recovered = true;
     step.pose = r.result.pose;
