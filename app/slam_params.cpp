@@ -138,6 +138,10 @@ void add_slam_params(ParamTable& t, SlamConfig* s, CarmenReaderOptions* r) {
                "final pass: second-best distinct score / best score a match may have");
   t.add_double("loop_final_rival_distance", &s->loop.final_rival_distance,
                "final pass: what counts as distinct for the ambiguity, metres");
+  t.add_double("loop_final_degenerate_ratio", &s->loop.final_degenerate_ratio,
+               "final pass: a match whose position the submap constrains along one direction "
+               "less than this share of the other (a corridor's axis) keeps the graph's "
+               "position along it (0 = off)");
   t.add_int("loop_final_icp_neighbours", &s->loop.final_icp_neighbours,
             "final pass: align each inserted scan to the N inserted before it (point-to-line "
             "ICP); the graph takes the alignments that hold as edges (0 = off)");

@@ -5,6 +5,8 @@
 #include <stdexcept>
 #include <string>
 
+#include <Eigen/Eigenvalues>
+
 #include "esfleet/core/es_search.hpp"
 #include "esfleet/core/window_search.hpp"
 
@@ -30,6 +32,9 @@ void LoopClosureConfig::validate() const {
     throw std::invalid_argument("loop.window_max_xy must be >= 0");
   }
   positive(window_theta_deg, "window_theta_deg");
+  if (!(degenerate_ratio >= 0.0 && degenerate_ratio < 1.0)) {
+    throw std::invalid_argument("loop.degenerate_ratio must be in [0, 1)");
+  }
   positive(sigma_xy, "sigma_xy");
   positive(sigma_theta_deg, "sigma_theta_deg");
   if (final_pass) {
@@ -51,6 +56,9 @@ void LoopClosureConfig::validate() const {
     positive(final_rival_distance, "final_rival_distance");
     positive(final_max_ambiguity, "final_max_ambiguity");
     positive(final_max_edge_chi2, "final_max_edge_chi2");
+    if (!(final_degenerate_ratio >= 0.0 && final_degenerate_ratio < 1.0)) {
+      throw std::invalid_argument("loop.final_degenerate_ratio must be in [0, 1)");
+    }
   }
 }
 
@@ -107,6 +115,27 @@ const GridMap& SubmapCache::build(const std::vector<SubmapScan>& scans,
   if (fresh) fresh_tiles_ = map_->tile_count();
   members_ = scans;
   return *map_;
+}
+
+std::optional<Eigen::Vector2d> weak_direction(const FitnessEvaluator& fitness, const Pose2& pose,
+                                              double step, double ratio) {
+  // The fitness falls away from a maximum: the curvature of -fitness in x and y by central
+  // differences over `step` (a few cells: the bilinear fitness is flat within a cell).
+  const auto f = [&](double dx, double dy) {
+    return static_cast<double>(fitness.fitness({pose.x + dx, pose.y + dy, pose.theta}));
+  };
+  const double f0 = f(0.0, 0.0);
+  const double h2 = step * step;
+  const double hxx = (2.0 * f0 - f(step, 0.0) - f(-step, 0.0)) / h2;
+  const double hyy = (2.0 * f0 - f(0.0, step) - f(0.0, -step)) / h2;
+  const double hxy =
+      -(f(step, step) - f(step, -step) - f(-step, step) + f(-step, -step)) / (4.0 * h2);
+  Eigen::Matrix2d h;
+  h << hxx, hxy, hxy, hyy;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(h);
+  const double weakest = eig.eigenvalues()(0), strongest = eig.eigenvalues()(1);
+  if (!(strongest > 0.0) || weakest >= ratio * strongest) return std::nullopt;
+  return Eigen::Vector2d(eig.eigenvectors().col(0));
 }
 
 std::optional<LoopMatch> find_loop_closure(const std::vector<KeyScan>& keys,
@@ -171,6 +200,17 @@ std::optional<LoopMatch> find_loop_closure(const std::vector<KeyScan>& keys,
   const EsResult polished = refine_pose(fine, best->pose, window.step_xy, window.step_theta, 0.001);
   match.pose = polished.pose;
   match.value = polished.value;
+  if (config.degenerate_ratio > 0.0) {
+    const std::optional<Eigen::Vector2d> weak =
+        weak_direction(fine, match.pose, 2.0 * map_config.cell_size, config.degenerate_ratio);
+    if (weak) {
+      const Eigen::Vector2d moved(match.pose.x - estimate.x, match.pose.y - estimate.y);
+      const Eigen::Vector2d kept = moved - *weak * weak->dot(moved);
+      match.pose.x = estimate.x + kept.x();
+      match.pose.y = estimate.y + kept.y();
+      match.value = fine.evaluate(match.pose);
+    }
+  }
   const double known = match.value.n_points > 0 ? static_cast<double>(match.value.n_known) /
                                                       static_cast<double>(match.value.n_points)
                                                 : 0.0;

@@ -473,6 +473,7 @@ SlamFinish Slam::finish(unsigned threads) {
     fc.max_submap_scans = lc.final_max_submap_scans;
     fc.rival_distance = lc.final_rival_distance;
     fc.max_ambiguity = lc.final_max_ambiguity;
+    fc.degenerate_ratio = lc.final_degenerate_ratio;
     const FitnessOptions fitness = slam_fitness_options(
         config_.tracking, config_.tracking.interpolation != Interpolation::kNone);
     threads = std::max(threads, 1u);

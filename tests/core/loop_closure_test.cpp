@@ -118,6 +118,96 @@ TEST(LoopClosure, RefusesAnImplausiblyLargeCorrection) {
   EXPECT_FALSE(match.has_value());
 }
 
+/// Key scans along a corridor with a door jamb (a few end points see along it), mapped at
+/// their true poses, 0.4 m apart.
+Scene corridor_keys(const std::vector<testing::Segment>& world) {
+  Scene s;
+  for (int i = 0; i < 6; ++i) {
+    const Pose2 truth{0.4 * i, 0.0, 0.0};
+    KeyScan k;
+    k.stamp = i;
+    k.points = std::make_shared<const ScanPoints>(prepare_scan(make_scan(world, truth)));
+    k.mapped_pose = truth;
+    k.path_length = 0.4 * i;
+    s.keys.push_back(std::move(k));
+    s.poses.push_back(truth);
+  }
+  return s;
+}
+
+const std::vector<testing::Segment> kCorridor{
+    {-100, 1, 100, 1}, {-100, -1, 100, -1}, {3.5, 1, 3.5, 0.8}};
+
+/// The submap of `scene`'s scans and a fitness of `points` in it, as find_loop_closure builds
+/// them.
+struct SceneFitness {
+  GridMap map;
+  FitnessEvaluator fitness;
+  SceneFitness(const Scene& scene, const ScanPoints& points)
+      : map(scene_map(scene)), fitness(map, points, FitnessOptions{}) {}
+  static GridMap scene_map(const Scene& scene) {
+    GridMap m{GridMapConfig{}};
+    for (std::size_t i = 0; i < scene.keys.size(); ++i) {
+      update_map(m, *scene.keys[i].points, scene.poses[i], MapUpdateConfig{});
+    }
+    return m;
+  }
+};
+
+TEST(LoopClosure, TheWeakDirectionIsACorridorsAxisAndNoneInARoom) {
+  const Pose2 truth{1.0, 0.1, 0.02};
+  const ScanPoints in_corridor = prepare_scan(make_scan(kCorridor, truth));
+  const SceneFitness corridor(corridor_keys(kCorridor), in_corridor);
+  const auto weak = weak_direction(corridor.fitness, truth, 0.1, 0.1);
+  ASSERT_TRUE(weak.has_value());
+  EXPECT_GT(std::abs(weak->x()), 0.99);  // along x, the corridor's axis
+  EXPECT_NEAR(weak->norm(), 1.0, 1e-9);
+  // Demanding less of the weak direction: constrained enough.
+  EXPECT_FALSE(weak_direction(corridor.fitness, truth, 0.1, 1e-4).has_value());
+
+  const Pose2 in_room{6.1, 4.3, 0.25};
+  const SceneFitness room(old_keys(), prepare_scan(make_scan(asymmetric_room(), in_room)));
+  EXPECT_FALSE(weak_direction(room.fitness, in_room, 0.1, 0.1).has_value());
+}
+
+TEST(LoopClosure, AlongACorridorAMatchKeepsTheEstimatesPosition) {
+  // The estimate is 0.2 m ahead along the corridor and 0.1 m off across it. With
+  // degenerate_ratio the match takes the correction across (and the heading) but not along.
+  const Scene scene = corridor_keys(kCorridor);
+  const Pose2 truth{1.0, 0.1, 0.02};
+  const ScanPoints current = prepare_scan(make_scan(kCorridor, truth));
+  const Pose2 estimate{truth.x + 0.2, truth.y - 0.1, truth.theta + deg_to_rad(1.0)};
+  LoopClosureConfig config;  // as the final pass searches
+  config.window_xy = 0.3;
+  config.window_theta_deg = 3.0;
+  config.rival_distance = 0.3;
+  config.max_ambiguity = 1.0;
+  auto search = [&](double ratio) {
+    LoopClosureConfig c = config;
+    c.degenerate_ratio = ratio;
+    return find_loop_closure(scene.keys, scene.poses, current, estimate, 40.0, c, GridMapConfig{},
+                             MapUpdateConfig{}, FitnessOptions{});
+  };
+  const auto free = search(0.0);
+  const auto held = search(0.1);
+  ASSERT_TRUE(free.has_value());
+  ASSERT_TRUE(held.has_value());
+  EXPECT_GT(std::abs(free->pose.x - estimate.x), 0.05);  // the free match moved along
+  EXPECT_NEAR(held->pose.x, estimate.x, 0.01);           // the held one did not
+  for (const auto& m : {*free, *held}) {
+    EXPECT_NEAR(m.pose.y, truth.y, 0.03);
+    EXPECT_NEAR(normalize_angle(m.pose.theta - truth.theta), 0.0, deg_to_rad(0.5));
+  }
+  EXPECT_NEAR(held->relative.x, held->pose.relative_to(scene.poses[held->anchor]).x, 1e-9);
+  EXPECT_THROW(
+      [] {
+        LoopClosureConfig bad;
+        bad.degenerate_ratio = 1.0;
+        bad.validate();
+      }(),
+      std::invalid_argument);
+}
+
 /// Every cell of `a` and `b` the same (counters, scores, coarse levels); a tile only one of them
 /// has must be all unknown.
 void expect_same_cells(const GridMap& a, const GridMap& b) {

@@ -14,6 +14,8 @@
 #include <optional>
 #include <vector>
 
+#include <Eigen/Core>
+
 #include "esfleet/core/fitness.hpp"
 #include "esfleet/core/geometry.hpp"
 #include "esfleet/core/grid_map.hpp"
@@ -63,6 +65,11 @@ struct LoopClosureConfig {
   double max_ambiguity =
       0.7;  ///< best score > rival_distance away / best score must stay below this
   double rival_distance = 1.0;  ///< metres (see max_ambiguity)
+  /// A match whose translation the submap constrains along one direction less than this share
+  /// of the other (the curvature of the fine fitness at the match: a corridor's axis) keeps the
+  /// estimate's position along that direction; only the rest of the correction is taken.
+  /// 0 = off. The online searches leave it off; the final pass uses final_degenerate_ratio.
+  double degenerate_ratio = 0.0;
   /// Plausibility: the correction a match implies must stay below floor + rate * (distance
   /// travelled since the anchor scan); odometry-free drift rarely exceeds a few percent.
   double drift_floor_xy = 0.3;         ///< metres
@@ -107,6 +114,10 @@ struct LoopClosureConfig {
   int final_max_submap_scans = 30;
   double final_rival_distance = 0.3;  ///< metres
   double final_max_ambiguity = 0.9;
+  /// degenerate_ratio of the final pass's searches. Along a corridor its small window's
+  /// best match slid 0.2-0.8 m where the tracked chain was right (CSAIL with odometry, seeds
+  /// 4 and 5: the revisit of scans 622-634 at 1564-1590; docs/slam.md item 6).
+  double final_degenerate_ratio = 0.1;
   double final_max_edge_chi2 = 9.0;  ///< whitened; edges above it after optimising are dropped
   /// Final pass: each inserted scan is aligned by ICP (scan_icp.hpp) to the N inserted scans
   /// before it. Where the ICP holds, the graph edge from the previous one takes its result in
@@ -175,6 +186,13 @@ class SubmapCache {
   std::size_t fresh_tiles_ = 0;
   std::size_t scans_cast_ = 0;
 };
+
+/// The unit direction (x, y) along which `fitness` constrains a translation from `pose` least,
+/// if its curvature there (central differences over `step` metres) is below `ratio` times the
+/// strongest direction's; nothing when both directions are constrained alike or the pose is no
+/// maximum in any direction.
+std::optional<Eigen::Vector2d> weak_direction(const FitnessEvaluator& fitness, const Pose2& pose,
+                                              double step, double ratio);
 
 /// Looks for a loop closure of the scan `points` whose current estimate is `estimate` and
 /// whose path length is `path_length`, against `keys` with their current poses `poses`
