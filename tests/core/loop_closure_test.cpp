@@ -24,21 +24,26 @@ struct Scene {
   std::vector<Pose2> poses;
 };
 
-/// Six key scans along a line, their mapped poses equal to the truth, path lengths from 0.
-Scene old_keys() {
+/// Key scans of `world` mapped at their true poses `truths`, 0.4 m apart along the path.
+Scene keys_at(const std::vector<testing::Segment>& world, const std::vector<Pose2>& truths) {
   Scene s;
-  const auto world = asymmetric_room();
-  for (int i = 0; i < 6; ++i) {
-    const Pose2 truth{5.0 + 0.4 * i, 4.0, 0.1 * i};
+  for (std::size_t i = 0; i < truths.size(); ++i) {
     KeyScan k;
-    k.stamp = i;
-    k.points = std::make_shared<const ScanPoints>(prepare_scan(make_scan(world, truth)));
-    k.mapped_pose = truth;
-    k.path_length = 0.4 * i;
+    k.stamp = static_cast<double>(i);
+    k.points = std::make_shared<const ScanPoints>(prepare_scan(make_scan(world, truths[i])));
+    k.mapped_pose = truths[i];
+    k.path_length = 0.4 * static_cast<double>(i);
     s.keys.push_back(std::move(k));
-    s.poses.push_back(truth);
+    s.poses.push_back(truths[i]);
   }
   return s;
+}
+
+/// Six key scans along a line in the asymmetric room, path lengths from 0.
+Scene old_keys() {
+  std::vector<Pose2> truths;
+  for (int i = 0; i < 6; ++i) truths.push_back({5.0 + 0.4 * i, 4.0, 0.1 * i});
+  return keys_at(asymmetric_room(), truths);
 }
 
 TEST(LoopClosure, WindowGrowsWithThePlausibleDriftUpToItsCap) {
@@ -118,21 +123,11 @@ TEST(LoopClosure, RefusesAnImplausiblyLargeCorrection) {
   EXPECT_FALSE(match.has_value());
 }
 
-/// Key scans along a corridor with a door jamb (a few end points see along it), mapped at
-/// their true poses, 0.4 m apart.
+/// Key scans along a corridor with a door jamb (a few end points see along it), 0.4 m apart.
 Scene corridor_keys(const std::vector<testing::Segment>& world) {
-  Scene s;
-  for (int i = 0; i < 6; ++i) {
-    const Pose2 truth{0.4 * i, 0.0, 0.0};
-    KeyScan k;
-    k.stamp = i;
-    k.points = std::make_shared<const ScanPoints>(prepare_scan(make_scan(world, truth)));
-    k.mapped_pose = truth;
-    k.path_length = 0.4 * i;
-    s.keys.push_back(std::move(k));
-    s.poses.push_back(truth);
-  }
-  return s;
+  std::vector<Pose2> truths;
+  for (int i = 0; i < 6; ++i) truths.push_back({0.4 * i, 0.0, 0.0});
+  return keys_at(world, truths);
 }
 
 const std::vector<testing::Segment> kCorridor{
