@@ -270,4 +270,29 @@ void HeadingScorer::rows(double y, std::int32_t* out) const {
   for (std::size_t j = 0; j < px_.size(); ++j) out[j] = fast_floor(fy + spx_[j] + cpy_[j]) - y0_;
 }
 
+Flattest flattest_direction(const FitnessEvaluator& eval, const Pose2& p, double f0, double step) {
+  auto f = [&](double dx, double dy) {
+    return static_cast<double>(eval.fitness({p.x + dx, p.y + dy, p.theta}));
+  };
+  const double h = step;
+  // N = -Hessian = [[a, b], [b, d]]; its eigenvalues and the smaller one's eigenvector.
+  const double a = -(f(h, 0) + f(-h, 0) - 2 * f0) / (h * h);
+  const double d = -(f(0, h) + f(0, -h) - 2 * f0) / (h * h);
+  const double b = -(f(h, h) - f(h, -h) - f(-h, h) + f(-h, -h)) / (4 * h * h);
+  const double mean = (a + d) / 2, spread = std::hypot((a - d) / 2, b);
+  const double lmin = mean - spread, lmax = mean + spread;
+  Flattest out;
+  out.curved = lmax > 0.0;
+  out.ratio = lmax > 0.0 ? std::max(lmin, 0.0) / lmax : 0.0;
+  double vx = lmin - d, vy = b;  // (N - lmin I) v = 0
+  if (std::hypot(vx, vy) < 1e-12) {
+    vx = a <= d ? 1.0 : 0.0;
+    vy = a <= d ? 0.0 : 1.0;
+  }
+  const double n = std::hypot(vx, vy);
+  out.vx = vx / n;
+  out.vy = vy / n;
+  return out;
+}
+
 }  // namespace esfleet

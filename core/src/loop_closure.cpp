@@ -5,8 +5,6 @@
 #include <stdexcept>
 #include <string>
 
-#include <Eigen/Eigenvalues>
-
 #include "esfleet/core/es_search.hpp"
 #include "esfleet/core/window_search.hpp"
 
@@ -117,27 +115,6 @@ const GridMap& SubmapCache::build(const std::vector<SubmapScan>& scans,
   return *map_;
 }
 
-std::optional<Eigen::Vector2d> weak_direction(const FitnessEvaluator& fitness, const Pose2& pose,
-                                              double step, double ratio) {
-  // The fitness falls away from a maximum: the curvature of -fitness in x and y by central
-  // differences over `step` (a few cells: the bilinear fitness is flat within a cell).
-  const auto f = [&](double dx, double dy) {
-    return static_cast<double>(fitness.fitness({pose.x + dx, pose.y + dy, pose.theta}));
-  };
-  const double f0 = f(0.0, 0.0);
-  const double h2 = step * step;
-  const double hxx = (2.0 * f0 - f(step, 0.0) - f(-step, 0.0)) / h2;
-  const double hyy = (2.0 * f0 - f(0.0, step) - f(0.0, -step)) / h2;
-  const double hxy =
-      -(f(step, step) - f(step, -step) - f(-step, step) + f(-step, -step)) / (4.0 * h2);
-  Eigen::Matrix2d h;
-  h << hxx, hxy, hxy, hyy;
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(h);
-  const double weakest = eig.eigenvalues()(0), strongest = eig.eigenvalues()(1);
-  if (!(strongest > 0.0) || weakest >= ratio * strongest) return std::nullopt;
-  return Eigen::Vector2d(eig.eigenvectors().col(0));
-}
-
 std::optional<LoopMatch> find_loop_closure(const std::vector<KeyScan>& keys,
                                            const std::vector<Pose2>& poses,
                                            const ScanPoints& points, const Pose2& estimate,
@@ -201,13 +178,15 @@ std::optional<LoopMatch> find_loop_closure(const std::vector<KeyScan>& keys,
   match.pose = polished.pose;
   match.value = polished.value;
   if (config.degenerate_ratio > 0.0) {
-    const std::optional<Eigen::Vector2d> weak =
-        weak_direction(fine, match.pose, 2.0 * map_config.cell_size, config.degenerate_ratio);
-    if (weak) {
-      const Eigen::Vector2d moved(match.pose.x - estimate.x, match.pose.y - estimate.y);
-      const Eigen::Vector2d kept = moved - *weak * weak->dot(moved);
-      match.pose.x = estimate.x + kept.x();
-      match.pose.y = estimate.y + kept.y();
+    // Curvature over two cells: the bilinear fitness is flat within one.
+    const Flattest flat =
+        flattest_direction(fine, match.pose, match.value.fitness, 2.0 * map_config.cell_size);
+    if (flat.curved && flat.ratio < config.degenerate_ratio) {
+      // The estimate's position along the flattest direction, the match's across it.
+      const double along =
+          flat.vx * (match.pose.x - estimate.x) + flat.vy * (match.pose.y - estimate.y);
+      match.pose.x -= along * flat.vx;
+      match.pose.y -= along * flat.vy;
       match.value = fine.evaluate(match.pose);
     }
   }

@@ -74,37 +74,6 @@ EsResult polish(const TrackingConfig& c, const FitnessEvaluator& eval, const Pos
 /// fitness is smooth at that scale, and a wall's end points stay on the wall's slope).
 constexpr double kHoldStep = 0.03;
 
-/// Where the fitness around a pose curves least in the plane, and how much.
-struct Flattest {
-  double vx = 1.0, vy = 0.0;  ///< unit direction
-  double ratio = 0.0;         ///< least curvature / greatest (0 when it does not curve at all)
-};
-
-/// `f0`: the fitness at `p`.
-Flattest flattest_direction(const FitnessEvaluator& eval, const Pose2& p, double f0) {
-  auto f = [&](double dx, double dy) {
-    return static_cast<double>(eval.fitness({p.x + dx, p.y + dy, p.theta}));
-  };
-  const double h = kHoldStep;
-  // N = -Hessian = [[a, b], [b, d]]; its eigenvalues and the smaller one's eigenvector.
-  const double a = -(f(h, 0) + f(-h, 0) - 2 * f0) / (h * h);
-  const double d = -(f(0, h) + f(0, -h) - 2 * f0) / (h * h);
-  const double b = -(f(h, h) - f(h, -h) - f(-h, h) + f(-h, -h)) / (4 * h * h);
-  const double mean = (a + d) / 2, spread = std::hypot((a - d) / 2, b);
-  const double lmin = mean - spread, lmax = mean + spread;
-  Flattest out;
-  out.ratio = lmax > 0.0 ? std::max(lmin, 0.0) / lmax : 0.0;
-  double vx = lmin - d, vy = b;  // (N - lmin I) v = 0
-  if (std::hypot(vx, vy) < 1e-12) {
-    vx = a <= d ? 1.0 : 0.0;
-    vy = a <= d ? 0.0 : 1.0;
-  }
-  const double n = std::hypot(vx, vy);
-  out.vx = vx / n;
-  out.vy = vy / n;
-  return out;
-}
-
 /// TrackingConfig::motion_hold: `found` moved along the flattest direction onto the nearest
 /// motion hypothesis, or nothing when the map constrains that direction too (ratio above
 /// motion_hold_ratio) or the fitness there drops more than allowed.
@@ -113,7 +82,7 @@ std::optional<Pose2> hold_along_motion(const TrackingConfig& c, const FitnessEva
   if (!(c.motion_hold > 0.0) || hypotheses.empty()) return std::nullopt;
   const float f0 = eval.fitness(found);
   if (!(f0 > 0.0f)) return std::nullopt;
-  const Flattest flat = flattest_direction(eval, found, f0);
+  const Flattest flat = flattest_direction(eval, found, f0, kHoldStep);
   if (flat.ratio > c.motion_hold_ratio) return std::nullopt;
   const auto nearest =
       std::min_element(hypotheses.begin(), hypotheses.end(), [&](const Pose2& p, const Pose2& q) {

@@ -149,20 +149,26 @@ struct SceneFitness {
   }
 };
 
-TEST(LoopClosure, TheWeakDirectionIsACorridorsAxisAndNoneInARoom) {
+TEST(LoopClosure, TheFlattestDirectionIsACorridorsAxisAndNoneInARoom) {
+  // What the final pass's degenerate_ratio (0.1) sees, over two cells as it looks.
   const Pose2 truth{1.0, 0.1, 0.02};
   const ScanPoints in_corridor = prepare_scan(make_scan(kCorridor, truth));
   const SceneFitness corridor(corridor_keys(kCorridor), in_corridor);
-  const auto weak = weak_direction(corridor.fitness, truth, 0.1, 0.1);
-  ASSERT_TRUE(weak.has_value());
-  EXPECT_GT(std::abs(weak->x()), 0.99);  // along x, the corridor's axis
-  EXPECT_NEAR(weak->norm(), 1.0, 1e-9);
-  // Demanding less of the weak direction: constrained enough.
-  EXPECT_FALSE(weak_direction(corridor.fitness, truth, 0.1, 1e-4).has_value());
+  const Flattest flat =
+      flattest_direction(corridor.fitness, truth, corridor.fitness.fitness(truth), 0.1);
+  ASSERT_TRUE(flat.curved);
+  EXPECT_LT(flat.ratio, 0.1);
+  EXPECT_GT(std::abs(flat.vx), 0.99);  // along x, the corridor's axis
+  EXPECT_NEAR(std::hypot(flat.vx, flat.vy), 1.0, 1e-9);
+  // Demanding less of the flattest direction: constrained enough.
+  EXPECT_GE(flat.ratio, 1e-4);
 
   const Pose2 in_room{6.1, 4.3, 0.25};
   const SceneFitness room(old_keys(), prepare_scan(make_scan(asymmetric_room(), in_room)));
-  EXPECT_FALSE(weak_direction(room.fitness, in_room, 0.1, 0.1).has_value());
+  const Flattest in_the_room =
+      flattest_direction(room.fitness, in_room, room.fitness.fitness(in_room), 0.1);
+  EXPECT_TRUE(in_the_room.curved);
+  EXPECT_GE(in_the_room.ratio, 0.1);
 }
 
 TEST(LoopClosure, AlongACorridorAMatchKeepsTheEstimatesPosition) {

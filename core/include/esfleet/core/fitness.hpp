@@ -107,4 +107,16 @@ class HeadingScorer {
   std::int32_t x0_ = 0, y0_ = 0, width_ = 0, height_ = 0;
 };
 
+/// Where the fitness around a pose curves least in the plane (a corridor's axis), and how much.
+struct Flattest {
+  double vx = 1.0, vy = 0.0;  ///< unit direction
+  double ratio = 0.0;         ///< least curvature / greatest (0 when it does not curve at all)
+  bool curved = false;        ///< the greatest curvature is > 0 (the pose is a maximum somewhere)
+};
+
+/// The curvature of `eval`'s fitness at `p` in x and y by central differences over `step`
+/// metres (`f0`: the fitness at `p`): the direction of the least and its share of the greatest.
+/// The tracking's hold along the motion and the final pass's loop matches use it.
+Flattest flattest_direction(const FitnessEvaluator& eval, const Pose2& p, double f0, double step);
+
 }  // namespace esfleet

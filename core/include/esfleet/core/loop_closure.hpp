@@ -14,8 +14,6 @@
 #include <optional>
 #include <vector>
 
-#include <Eigen/Core>
-
 #include "esfleet/core/fitness.hpp"
 #include "esfleet/core/geometry.hpp"
 #include "esfleet/core/grid_map.hpp"
@@ -66,9 +64,9 @@ struct LoopClosureConfig {
       0.7;  ///< best score > rival_distance away / best score must stay below this
   double rival_distance = 1.0;  ///< metres (see max_ambiguity)
   /// A match whose translation the submap constrains along one direction less than this share
-  /// of the other (the curvature of the fine fitness at the match: a corridor's axis) keeps the
-  /// estimate's position along that direction; only the rest of the correction is taken.
-  /// 0 = off. The online searches leave it off; the final pass uses final_degenerate_ratio.
+  /// of the other (flattest_direction of the fine fitness at the match: a corridor's axis) keeps
+  /// the estimate's position along that direction; only the rest of the correction is taken. 0 =
+  /// off. The online searches leave it off; the final pass uses final_degenerate_ratio.
   double degenerate_ratio = 0.0;
   /// Plausibility: the correction a match implies must stay below floor + rate * (distance
   /// travelled since the anchor scan); odometry-free drift rarely exceeds a few percent.
@@ -186,13 +184,6 @@ class SubmapCache {
   std::size_t fresh_tiles_ = 0;
   std::size_t scans_cast_ = 0;
 };
-
-/// The unit direction (x, y) along which `fitness` constrains a translation from `pose` least,
-/// if its curvature there (central differences over `step` metres) is below `ratio` times the
-/// strongest direction's; nothing when both directions are constrained alike or the pose is no
-/// maximum in any direction.
-std::optional<Eigen::Vector2d> weak_direction(const FitnessEvaluator& fitness, const Pose2& pose,
-                                              double step, double ratio);
 
 /// Looks for a loop closure of the scan `points` whose current estimate is `estimate` and
 /// whose path length is `path_length`, against `keys` with their current poses `poses`
