@@ -190,8 +190,9 @@ void add_slam_params(ParamTable& t, SlamConfig* s, CarmenReaderOptions* r) {
                "replaces it however far the jump (0 = no cap)");
   t.add_double("recovery_min_hits", &s->recovery.min_hits,
                "a recovered pose with under 30 % of its end points on observed cells is still "
-               "taken with at least this share of them on hits, and twice the tracked pose's "
-               "(a missed turn in place into new space; 0 = never)");
+               "taken with at least this share of them on hits, and recovery_min_hits_ratio times "
+               "the tracked pose's (a missed turn in place into new space; 0 = never)");
+  t.add_double("recovery_min_hits_ratio", &s->recovery.min_hits_ratio, "... see recovery_min_hits");
   t.add_int("recovery_tolerance", &s->recovery.tolerance,
             "judging a recovered pose, an end point within this many cells of a cell with hits "
             "counts as on it (beams grazing a wall clear the cells along its face; 0 = its own "
@@ -216,6 +217,14 @@ void add_slam_params(ParamTable& t, SlamConfig* s, CarmenReaderOptions* r) {
                "agrees at least this much with the map (0 = it always does) ...");
   t.add_double("recovery_settled_known", &s->recovery.settled_known,
                "... with at least this share of its end points on observed cells");
+  t.add_int("recovery_candidates", &s->recovery.candidates,
+            "distinct poses of the recovery search's coarse stage refined at full resolution");
+  t.add_int("recovery_more_candidates", &s->recovery.more_candidates,
+            "... and when none of those fits the map (consistency below recovery_more_below), "
+            "the next ones up to this many in all, taken only if one fits");
+  t.add_double("recovery_more_below", &s->recovery.more_below,
+               "... see recovery_more_candidates (consistency: evidence - contradiction - "
+               "see-through, in [-2, 1]; -2 = never)");
   t.add_double("recovery_insert_min_agreement", &s->recovery.insert_min_agreement,
                "a scan agreeing less than this with the map is not written into it (0 = off)");
   t.add_double("key_sigma_xy", &s->key_sigma_xy,

@@ -60,6 +60,42 @@ TEST(Recovery, OutsideTheWindowItFindsNothingBetter) {
             consistency(map, points, truth, config.tolerance).score() - 0.2f);
 }
 
+// The first `candidates` coarse poses are refined; only when none of them fits the map are the
+// next ones up to `more_candidates`.
+TEST(Recovery, MoreCandidatesAreRefinedOnlyWhenNoneFits) {
+  const auto world = asymmetric_room();
+  const GridMap map = map_of(world, 12, 8);
+  const Pose2 truth{6.0, 3.2, deg_to_rad(20.0)};
+  const ScanPoints points = prepare_scan(make_scan(world, truth));
+  TrackingConfig tracking;
+  const EvolutionStrategy es(tracking.es);
+  RecoveryConfig config;  // candidates 8, more_candidates 32
+  // The truth in the window: the first candidates hold it.
+  Rng rng(7);
+  RecoveryResult r = recover_pose(config, tracking, es, rng, map, points,
+                                  {truth.x - 0.8, truth.y + 0.75, truth.theta});
+  EXPECT_EQ(r.coarse.size(), 8u);
+  EXPECT_LT(std::hypot(r.result.pose.x - truth.x, r.result.pose.y - truth.y), 0.05);
+  // Far outside it: nothing fits, and up to 32 are refined (every distinct coarse pose with a
+  // positive score), none of them taken.
+  config.window_xy = 0.5;
+  const Pose2 far{truth.x - 3.0, truth.y + 0.5, truth.theta};
+  rng = Rng(7);
+  r = recover_pose(config, tracking, es, rng, map, points, far);
+  EXPECT_LT(consistency(map, points, r.result.pose, config.tolerance).score(), config.more_below);
+  EXPECT_GT(r.coarse.size(), 8u);
+  EXPECT_LE(r.coarse.size(), 32u);
+  const Pose2 with_more = r.result.pose;
+  config.more_below = -2.0;  // never
+  rng = Rng(7);
+  r = recover_pose(config, tracking, es, rng, map, points, far);
+  EXPECT_EQ(r.coarse.size(), 8u);
+  // None of the extra ones fitted: the ES finished from the same start, to the same pose.
+  EXPECT_EQ(r.result.pose.x, with_more.x);
+  EXPECT_EQ(r.result.pose.y, with_more.y);
+  EXPECT_EQ(r.result.pose.theta, with_more.theta);
+}
+
 TEST(Recovery, ConsistencySeesBeamsThroughWalls) {
   const auto world = asymmetric_room();
   const GridMap map = map_of(world, 12, 8);
@@ -157,6 +193,12 @@ TEST(Recovery, ValidateNamesTheField) {
   RecoveryConfig settled;
   settled.settled_known = -0.1;
   expect_refused(settled, "slam.recovery_settled_known");
+  RecoveryConfig more;
+  more.more_candidates = more.candidates - 1;
+  expect_refused(more, "slam.recovery_more_candidates");
+  more = RecoveryConfig{};
+  more.more_below = 1.5;
+  expect_refused(more, "slam.recovery_more_below");
   // On by default (key-scan logs, dropped scans); the paper's configuration has none of it.
   EXPECT_TRUE(SlamConfig{}.recovery.enabled);
   EXPECT_FALSE(SlamConfig::paper().recovery.enabled);
@@ -209,7 +251,13 @@ TEST(Recovery, AFewKnownEndPointsDoWhenTheyExplainMoreOfTheScan) {
   // 35 hits.
   EXPECT_TRUE(overlaps_enough(c, value(35, 38), lost));
   EXPECT_FALSE(overlaps_enough(c, value(17, 38), lost));           // under 10 % on hits
-  EXPECT_FALSE(overlaps_enough(c, value(35, 38), value(18, 74)));  // not twice the tracked's
+  EXPECT_TRUE(overlaps_enough(c, value(35, 38), value(23, 74)));   // 1.5 times the tracked's
+  EXPECT_FALSE(overlaps_enough(c, value(35, 38), value(24, 74)));  // not 1.5 times
+  c.min_hits_ratio = 2.0;
+  EXPECT_FALSE(overlaps_enough(c, value(35, 38), value(18, 74)));
+  c.min_hits_ratio = -1.0;
+  expect_refused(c, "slam.recovery_min_hits_ratio");
+  c.min_hits_ratio = 1.5;
   c.min_hits = 0.0;
   EXPECT_FALSE(overlaps_enough(c, value(35, 38), lost));
   c.min_hits = 1.5;

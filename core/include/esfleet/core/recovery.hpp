@@ -10,7 +10,8 @@
 //      by the sum of the pooled values at up to `points` end points: an occupied cell its map
 //      value, a free one -free_penalty, an unknown one 0 (the maximum over the block: a true
 //      pose never scores low);
-//   2. fine: the `candidates` best distinct coarse poses are searched again at full resolution
+//   2. fine: the `candidates` best distinct coarse poses (more when none fits: see
+//      more_candidates) are searched again at full resolution
 //      in a neighbourhood of one coarse step;
 //   3. the ES (the tracking's own configuration) starts from a population holding those
 //      candidates and polishes the best, on the full scan.
@@ -77,7 +78,17 @@ struct RecoveryConfig {
   /// What an end point on a known free cell scores in the coarse and fine stages (an occupied
   /// cell scores its map value, an unknown one 0).
   double free_penalty = 0.5;
-  int candidates = 8;        ///< distinct coarse poses refined
+  int candidates = 8;  ///< distinct coarse poses refined
+  /// ... and when none of them fits the map (consistency under `more_below`), the next distinct
+  /// coarse poses up to `more_candidates` in all; the best of those is taken only if it fits.
+  /// The max-pooled coarse stage can rank poses that put end points near any wall above a true
+  /// pose that sees mostly new space: on the key-scan log (key scan 370, seeds 1, 4 and 20) the
+  /// true pose was the 19th, 16th and 25th distinct coarse pose (consistency 0.41), none of the
+  /// first 8 scored above -0.15, and the run broke. Refining 24 in every search broke CSAIL
+  /// every 5th scan instead (a wrong candidate more consistent than the true one), and so did
+  /// taking a poorly fitting one of the extra candidates (docs/slam.md item 7).
+  int more_candidates = 32;
+  double more_below = 0.2;
   double distinct_xy = 0.3;  ///< coarse poses closer than this (and distinct_theta) are one
   double distinct_theta_deg = 5.0;
   /// Slam: the recovered pose replaces the tracked one when its consistency score (below) is
@@ -106,12 +117,15 @@ struct RecoveryConfig {
   /// less (0.35 at the window's edge). 0 = no cap.
   double clear_gain = 0.5;
   /// A recovered pose needs min_known of its end points on observed cells, unless at least
-  /// this share of them fall on cells with hits and at least twice as many as at the tracked
-  /// pose: a turn in place the prediction missed shows mostly new space while the map holds
-  /// one or a few scans (a simulated robot at 1 scan/s turning 60 deg before it drives: the
+  /// this share of them fall on cells with hits and at least min_hits_ratio times as many as at
+  /// the tracked pose: a turn in place the prediction missed shows mostly new space while the map
+  /// holds one or a few scans (a simulated robot at 1 scan/s turning 60 deg before it drives: the
   /// true pose 21 % known, 92 % of those hits, the tracked pose none; docs/slam.md item 7).
   /// 0 = never.
   double min_hits = 0.1;
+  /// (The key-scan log, key scan 370, seed 1: the true pose 30 % known, 92 % of those hits,
+  /// 1.93 times the tracked pose's hits, was refused at 2.)
+  double min_hits_ratio = 1.5;
   /// Consistency: an end point within this many cells of a cell with hits counts as evidence,
   /// not as a contradiction (0 = its own cell only). Beams that graze a wall clear the cells
   /// along its face, so a true pose along a corridor seen from afar puts many end points on
