@@ -173,6 +173,74 @@ std::vector<Scored> best_distinct(std::vector<Scored> all, std::size_t keep, dou
   return out;
 }
 
+/// The end points the coarse and fine stages score, in cell units (at most config.points of
+/// those within config.max_range, evenly strided; none when fewer than 8 are), and the same
+/// rotated by one heading at a time.
+struct CellPoints {
+  std::vector<float> x, y, range;
+  std::vector<float> rx, ry;  ///< rotated by the heading of the last rotate()
+
+  void rotate(double theta) {
+    const auto c = static_cast<float>(std::cos(theta)), s = static_cast<float>(std::sin(theta));
+    for (std::size_t j = 0; j < x.size(); ++j) {
+      rx[j] = c * x[j] - s * y[j];
+      ry[j] = s * x[j] + c * y[j];
+    }
+  }
+  /// The sum of cell_value(cx, cy) over the cells of the rotated points placed at (ox, oy).
+  template <class CellValue>
+  float sum_at(float ox, float oy, CellValue cell_value) const {
+    const float* px = rx.data();
+    const float* py = ry.data();
+    const std::size_t n = rx.size();
+    float sum = 0.0f;
+    for (std::size_t j = 0; j < n; ++j) sum += cell_value(floor_f(ox + px[j]), floor_f(oy + py[j]));
+    return sum;
+  }
+};
+
+CellPoints sample_points(const RecoveryConfig& config, const ScanPoints& points, double inv_cell) {
+  std::vector<std::size_t> near;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    if (points.range[i] <= config.max_range) near.push_back(i);
+  }
+  CellPoints out;
+  if (near.size() < 8) return out;
+  const double stride = static_cast<double>(near.size()) / config.points;
+  for (int j = 0; j < config.points; ++j) {
+    const auto k = static_cast<std::size_t>(stride > 1.0 ? std::floor(j * stride) : j);
+    if (k >= near.size()) break;
+    out.x.push_back(static_cast<float>(points.x[near[k]] * inv_cell));
+    out.y.push_back(static_cast<float>(points.y[near[k]] * inv_cell));
+    out.range.push_back(points.range[near[k]]);
+  }
+  out.rx.resize(out.x.size());
+  out.ry.resize(out.x.size());
+  return out;
+}
+
+/// Fine: the best of every cell and a third of the coarse heading step within `fxy` cells and
+/// one coarse heading step around the coarse pose `b`, scored at full resolution.
+Scored fine_best(const LocalWindow& window, CellPoints& pts, const Scored& b, int fxy,
+                 double step_theta, double cell_size) {
+  const double inv_cell = 1.0 / cell_size;
+  const auto fine = [&window](std::int32_t cx, std::int32_t cy) { return window.fine(cx, cy); };
+  Scored top{-1.0f, b.pose};
+  for (int it = -3; it <= 3; ++it) {
+    const double theta = normalize_angle(b.pose.theta + it * step_theta / 3.0);
+    pts.rotate(theta);
+    for (int iy = -fxy; iy <= fxy; ++iy) {
+      for (int ix = -fxy; ix <= fxy; ++ix) {
+        const Pose2 p{b.pose.x + ix * cell_size, b.pose.y + iy * cell_size, theta};
+        const float sum = pts.sum_at(static_cast<float>(p.x * inv_cell),
+                                     static_cast<float>(p.y * inv_cell), fine);
+        if (sum > top.score) top = {sum, p};
+      }
+    }
+  }
+  return top;
+}
+
 }  // namespace
 
 Consistency consistency(const GridMap& map, const ScanPoints& points, const Pose2& pose,
@@ -237,23 +305,11 @@ RecoveryResult recover_pose(const RecoveryConfig& config, const TrackingConfig& 
                             const ScanPoints& points, const Pose2& centre) {
   RecoveryResult out;
   out.result.pose = centre;
-  // The end points scored: those within max_range, evenly strided down to config.points.
-  std::vector<std::size_t> near;
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    if (points.range[i] <= config.max_range) near.push_back(i);
-  }
-  if (near.size() < 8) return out;
-  const double stride = static_cast<double>(near.size()) / config.points;
-  std::vector<float> px, py, pr;
   const double inv_cell = 1.0 / map.cell_size();
-  for (int j = 0; j < config.points; ++j) {
-    const auto k = static_cast<std::size_t>(stride > 1.0 ? std::floor(j * stride) : j);
-    if (k >= near.size()) break;
-    px.push_back(static_cast<float>(points.x[near[k]] * inv_cell));
-    py.push_back(static_cast<float>(points.y[near[k]] * inv_cell));
-    pr.push_back(points.range[near[k]]);
-  }
-  const std::size_t n = px.size();
+  CellPoints pts = sample_points(config, points, inv_cell);
+  const std::size_t n = pts.x.size();
+  if (n == 0) return out;
+  const std::vector<float>& pr = pts.range;
   std::vector<float> sorted_range = pr;
   std::nth_element(sorted_range.begin(), sorted_range.begin() + n / 2, sorted_range.end());
   const double median_range = std::max(1.0, static_cast<double>(sorted_range[n / 2]));
@@ -285,25 +341,18 @@ RecoveryResult recover_pose(const RecoveryConfig& config, const TrackingConfig& 
   }
   const int th_lo = static_cast<int>(std::floor(lo / step_theta));
   const int th_hi = static_cast<int>(std::ceil(hi / step_theta));
-  std::vector<float> rx(n), ry(n);
+  const auto pooled = [&window](std::int32_t x, std::int32_t y) { return window.coarse(x, y); };
   std::vector<Scored> coarse;
   coarse.reserve(static_cast<std::size_t>((th_hi - th_lo + 1) * (2 * nxy + 1) * (2 * nxy + 1)));
   for (int it = th_lo; it <= th_hi; ++it) {
     const double theta = normalize_angle(centre.theta + it * step_theta);
-    const auto c = static_cast<float>(std::cos(theta)), s = static_cast<float>(std::sin(theta));
-    for (std::size_t j = 0; j < n; ++j) {
-      rx[j] = c * px[j] - s * py[j];
-      ry[j] = s * px[j] + c * py[j];
-    }
+    pts.rotate(theta);
     for (int iy = -nxy; iy <= nxy; ++iy) {
       const auto oy = static_cast<float>(cy + iy * step_xy * inv_cell);
       for (int ix = -nxy; ix <= nxy; ++ix) {
         const auto ox = static_cast<float>(cx + ix * step_xy * inv_cell);
-        float sum = 0.0f;
-        for (std::size_t j = 0; j < n; ++j) {
-          sum += window.coarse(floor_f(ox + rx[j]), floor_f(oy + ry[j]));
-        }
-        coarse.push_back({sum, {centre.x + ix * step_xy, centre.y + iy * step_xy, theta}});
+        coarse.push_back({pts.sum_at(ox, oy, pooled),
+                          {centre.x + ix * step_xy, centre.y + iy * step_xy, theta}});
       }
     }
   }
@@ -314,36 +363,13 @@ RecoveryResult recover_pose(const RecoveryConfig& config, const TrackingConfig& 
                     config.distinct_xy, deg_to_rad(config.distinct_theta_deg));
   if (best.empty()) return out;
 
-  // Fine: every cell and a third of the coarse heading step within one coarse step around each
-  // coarse pose of [first, last), best first.
+  // Fine: each coarse pose of [first, last) searched again within one coarse step, best first.
   const int fxy = factor / 2;
   const auto fine_stage = [&](std::size_t first, std::size_t last) {
     std::vector<Scored> fine;
     for (std::size_t i = first; i < last; ++i) {
-      const Scored& b = best[i];
-      out.coarse.push_back(b.pose);
-      Scored top{-1.0f, b.pose};
-      for (int it = -3; it <= 3; ++it) {
-        const double theta = normalize_angle(b.pose.theta + it * step_theta / 3.0);
-        const auto c = static_cast<float>(std::cos(theta)), s = static_cast<float>(std::sin(theta));
-        for (std::size_t j = 0; j < n; ++j) {
-          rx[j] = c * px[j] - s * py[j];
-          ry[j] = s * px[j] + c * py[j];
-        }
-        for (int iy = -fxy; iy <= fxy; ++iy) {
-          for (int ix = -fxy; ix <= fxy; ++ix) {
-            const Pose2 p{b.pose.x + ix * map.cell_size(), b.pose.y + iy * map.cell_size(), theta};
-            const auto ox = static_cast<float>(p.x * inv_cell);
-            const auto oy = static_cast<float>(p.y * inv_cell);
-            float sum = 0.0f;
-            for (std::size_t j = 0; j < n; ++j) {
-              sum += window.fine(floor_f(ox + rx[j]), floor_f(oy + ry[j]));
-            }
-            if (sum > top.score) top = {sum, p};
-          }
-        }
-      }
-      fine.push_back(top);
+      out.coarse.push_back(best[i].pose);
+      fine.push_back(fine_best(window, pts, best[i], fxy, step_theta, map.cell_size()));
     }
     std::stable_sort(fine.begin(), fine.end(),
                      [](const Scored& a, const Scored& b) { return a.score > b.score; });
