@@ -69,22 +69,22 @@ TEST(Recovery, MoreCandidatesAreRefinedOnlyWhenNoneFits) {
   const ScanPoints points = prepare_scan(make_scan(world, truth));
   TrackingConfig tracking;
   const EvolutionStrategy es(tracking.es);
-  RecoveryConfig config;  // candidates 8, more_candidates 32
+  RecoveryConfig config;  // candidates 8, more_candidates 64
   // The truth in the window: the first candidates hold it.
   Rng rng(7);
   RecoveryResult r = recover_pose(config, tracking, es, rng, map, points,
                                   {truth.x - 0.8, truth.y + 0.75, truth.theta});
   EXPECT_EQ(r.coarse.size(), 8u);
   EXPECT_LT(std::hypot(r.result.pose.x - truth.x, r.result.pose.y - truth.y), 0.05);
-  // Far outside it: nothing fits, and up to 32 are refined (every distinct coarse pose with a
-  // positive score), none of them taken.
+  // Far outside it: nothing fits, and up to more_candidates are refined (every distinct coarse
+  // pose with a positive score), none of them taken.
   config.window_xy = 0.5;
   const Pose2 far{truth.x - 3.0, truth.y + 0.5, truth.theta};
   rng = Rng(7);
   r = recover_pose(config, tracking, es, rng, map, points, far);
   EXPECT_LT(consistency(map, points, r.result.pose, config.tolerance).score(), config.more_below);
   EXPECT_GT(r.coarse.size(), 8u);
-  EXPECT_LE(r.coarse.size(), 32u);
+  EXPECT_LE(r.coarse.size(), static_cast<std::size_t>(config.more_candidates));
   const Pose2 with_more = r.result.pose;
   config.more_below = -2.0;  // never
   rng = Rng(7);
