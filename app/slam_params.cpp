@@ -203,6 +203,15 @@ void add_slam_params(ParamTable& t, SlamConfig* s, CarmenReaderOptions* r) {
   t.add_double("recovery_weak_min_scale", &s->recovery.weak_min_scale,
                "a weak match triggers the recovery search only when the recent motion is at "
                "least this share of 1 m or 45 degrees per scan");
+  t.add_double("recovery_odometry_window_xy", &s->recovery.odometry_window_xy,
+               "with odometry, the recovery search is centred on the odometry's pose and its "
+               "window is at most this plus recovery_odometry_window_frac times the step's "
+               "length, metres (0 = the window as without odometry)");
+  t.add_double("recovery_odometry_window_theta", &s->recovery.odometry_window_theta_deg,
+               "... and at most this plus recovery_odometry_window_frac times the step's turn, "
+               "degrees");
+  t.add_double("recovery_odometry_window_frac", &s->recovery.odometry_window_frac,
+               "... see recovery_odometry_window_xy");
   t.add_double("recovery_wide_motion_xy", &s->recovery.wide_motion_xy,
                "the recovery search also runs when the predicted motion is this long, metres "
                "(0 = never)");

@@ -36,6 +36,12 @@ void RecoveryConfig::validate() const {
         "window_scale_xy and window_scale_theta must be > 0");
   check(window_min_scale > 0.0 && window_min_scale <= 1.0, "window_min_scale must be in (0, 1]");
   check(weak_min_scale >= 0.0 && weak_min_scale <= 1.0, "weak_min_scale must be in [0, 1]");
+  check(odometry_window_xy >= 0.0 && std::isfinite(odometry_window_xy),
+        "odometry_window_xy must be >= 0 (0 = off)");
+  check(odometry_window_theta_deg > 0.0 && odometry_window_theta_deg <= 180.0,
+        "odometry_window_theta must be in (0, 180] degrees");
+  check(odometry_window_frac >= 0.0 && std::isfinite(odometry_window_frac),
+        "odometry_window_frac must be >= 0");
   check(free_penalty >= 0.0 && free_penalty <= 10.0, "free_penalty must be in [0, 10]");
   check(window_xy > 0.0 && window_xy <= 20.0, "window_xy must be in (0, 20] metres");
   check(window_theta_deg > 0.0 && window_theta_deg <= 180.0,

@@ -256,10 +256,11 @@ void Slam::recover(const LaserScan& scan, const ScanPoints& points, const Motion
   // With odometry the motion is measured, not guessed: only a weak match triggers.
   const bool measured = config_.tracking.use_odometry && scan.odometry && last_odometry_;
   const Pose2 motion_step = predicted.relative_to(motion.last.pose);
+  const double motion_length = std::hypot(motion_step.x, motion_step.y);
   // How far the robot could have driven since the last scan, whatever it did before.
   const double dt = scan.stamp - trajectory_.back().stamp;
   const double reach = !measured && rc.max_speed > 0.0 && dt > 0.0 ? rc.max_speed * dt : 0.0;
-  const double travel = std::max(std::hypot(motion_step.x, motion_step.y), reach);
+  const double travel = std::max(motion_length, reach);
   const bool wide =
       !measured && ((rc.wide_motion_xy > 0.0 && travel >= rc.wide_motion_xy) ||
                     (rc.wide_motion_theta_deg > 0.0 &&
@@ -288,13 +289,23 @@ void Slam::recover(const LaserScan& scan, const ScanPoints& points, const Motion
   RecoveryConfig scaled = rc;
   scaled.window_xy *= scale;
   scaled.window_theta_deg *= scale;
-  // Centred on the predicted position with the previous heading: a turn is what a prediction
-  // gets most wrong.
+  // Without odometry, centred on the predicted position with the previous heading: a turn is
+  // what a prediction gets most wrong. With it, on the odometry's pose, no farther than
+  // odometry can be off over the step.
+  Pose2 centre{predicted.x, predicted.y, motion.last.pose.theta};
+  if (measured && rc.odometry_window_xy > 0.0) {
+    centre = predicted;
+    scaled.window_xy =
+        std::min(scaled.window_xy, rc.odometry_window_xy + rc.odometry_window_frac * motion_length);
+    scaled.window_theta_deg =
+        std::min(scaled.window_theta_deg,
+                 rc.odometry_window_theta_deg +
+                     rc.odometry_window_frac * rad_to_deg(std::abs(motion_step.theta)));
+  }
   // Its own draws, from the seed and the scan's index: the tracking's stream stays the same
   // whether or not the search ran, and a resumed run draws the same.
   Rng rng(config_.seed * 0x9E3779B97F4A7C15ULL + trajectory_.size());
-  const RecoveryResult r = recover_pose(scaled, config_.tracking, es_, rng, map_, points,
-                                        {predicted.x, predicted.y, motion.last.pose.theta});
+  const RecoveryResult r = recover_pose(scaled, config_.tracking, es_, rng, map_, points, centre);
   // The farther the jump from the tracked pose (relative to the window), the clearer its gain
   // in consistency must be.
   const float gain = consistency(map_, points, r.result.pose, rc.tolerance).score() -
@@ -303,7 +314,7 @@ void Slam::recover(const LaserScan& scan, const ScanPoints& points, const Motion
   const double jump_xy = std::hypot(jump.x, jump.y);
   const double d =
       jump_xy / scaled.window_xy + std::abs(jump.theta) / deg_to_rad(scaled.window_theta_deg);
-  const bool as_weak = judged_as_weak(rc, weak, jump_xy, std::hypot(motion_step.x, motion_step.y));
+  const bool as_weak = judged_as_weak(rc, weak, jump_xy, motion_length);
   if (overlaps_enough(rc, r.result.value, step.fitness) && gain >= gain_needed(rc, as_weak, d)) {
     step.recovered = true;
     step.pose = r.result.pose;

@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -199,6 +200,12 @@ TEST(Recovery, ValidateNamesTheField) {
   more = RecoveryConfig{};
   more.more_below = 1.5;
   expect_refused(more, "slam.recovery_more_below");
+  RecoveryConfig odometry;
+  odometry.odometry_window_theta_deg = 0.0;
+  expect_refused(odometry, "slam.recovery_odometry_window_theta");
+  odometry = RecoveryConfig{};
+  odometry.odometry_window_frac = std::numeric_limits<double>::quiet_NaN();
+  expect_refused(odometry, "slam.recovery_odometry_window_frac");
   // On by default (key-scan logs, dropped scans); the paper's configuration has none of it.
   EXPECT_TRUE(SlamConfig{}.recovery.enabled);
   EXPECT_FALSE(SlamConfig::paper().recovery.enabled);

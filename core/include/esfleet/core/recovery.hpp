@@ -72,6 +72,18 @@ struct RecoveryConfig {
   /// robot moves about half a metre or 22 degrees per scan); a large predicted motion always
   /// does. 0 = any weak match.
   double weak_min_scale = 0.0;
+  /// Slam, with odometry: the search is centred on the odometry's predicted pose, heading
+  /// included, and its window is at most what wheel odometry can be off by over the step:
+  /// odometry_window_xy + odometry_window_frac * the step's length, and odometry_window_theta +
+  /// odometry_window_frac * its turn. Without the bound a drifted map made a pose turned 88
+  /// degrees from the odometry's look better, and the run broke (the key-scan log with an 8 m
+  /// laser and noisy odometry, key scan 217, 2 of 10 seeds; docs/slam.md item 7). Generous,
+  /// because real odometry lags: CSAIL's raw odometry (every 3rd scan) reports turns up to 45
+  /// degrees late or early, and the search must still correct those. odometry_window_xy 0 = the
+  /// window as without odometry, centred on the previous heading.
+  double odometry_window_xy = 0.5;          ///< metres
+  double odometry_window_theta_deg = 20.0;  ///< degrees
+  double odometry_window_frac = 0.75;
   int coarse_level = 2;     ///< pooled cells are 2^level map cells
   int points = 120;         ///< end points scored in the coarse and fine stages
   double max_range = 20.0;  ///< end points farther than this are left out of both
