@@ -88,6 +88,11 @@ void add_slam_params(ParamTable& t, SlamConfig* s, CarmenReaderOptions* r) {
                "insert a scan once the robot moved this far since the last one, metres (0 and "
                "insert_min_turn 0 = every scan)");
   t.add_double("insert_min_turn", &s->insert_min_turn_deg, "... or turned this much, degrees");
+  t.add_double("short_view_range", &s->short_view_range,
+               "with odometry: while no scan in the map had a beam this long (a short laser), "
+               "hold along the motion with at least --short-view-motion-hold, metres (0 = off)");
+  t.add_double("short_view_motion_hold", &s->short_view_motion_hold,
+               "... the motion hold then (as --motion-hold)");
   t.add_switch("loop_closure", &s->loop.enabled, "loop closure over a pose graph");
   t.add_double("loop_move_min_xy", &s->loop.move_min_xy,
                "after a loop closure, re-write a scan into the map only if it moved this far, "

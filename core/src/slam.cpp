@@ -20,6 +20,10 @@ void SlamConfig::validate() const {
         "slam.insert_min_travel and insert_min_turn must be >= 0");
   check(key_sigma_xy > 0.0 && key_sigma_theta_deg > 0.0,
         "slam.key_sigma_xy and key_sigma_theta must be > 0");
+  check(short_view_range >= 0.0 && std::isfinite(short_view_range),
+        "slam.short_view_range must be >= 0 (0 = off)");
+  check(short_view_motion_hold >= 0.0 && short_view_motion_hold < 1.0,
+        "slam.short_view_motion_hold must be in [0, 1)");
   if (loop.enabled) loop.validate();
   if (recovery.enabled) recovery.validate();
   contribution.validate();
@@ -45,12 +49,16 @@ SlamConfig SlamConfig::paper() {
   c.insert_min_turn_deg = 0.0;
   c.loop.enabled = false;
   c.recovery.enabled = false;
+  c.short_view_motion_hold = 0.0;
   return c;
 }
 
 Slam::Slam(SlamConfig config)
     : config_(config), map_(config.map), es_(config.tracking.es), rng_(config.seed) {
   config_.validate();
+  short_view_tracking_ = config_.tracking;
+  short_view_tracking_.motion_hold =
+      std::max(config_.tracking.motion_hold, config_.short_view_motion_hold);
 }
 
 namespace {
@@ -146,6 +154,7 @@ bool Slam::settle_one() {
   }
   map_.commit_update();
   keys_.resize(k + 1);
+  recompute_laser_reach();
   last_own_key_ = k;  // no contribution is added while a search is speculative
   trajectory_.resize(spec.trajectory_size);
   anchors_.resize(spec.trajectory_size);
@@ -193,8 +202,11 @@ SlamStep Slam::process_scan(const LaserScan& scan) {
                                   motion.last.pose.compose(a.pose.relative_to(b.pose))};
     }
     motion.odometry = last_odometry_;
+    const bool short_view = config_.tracking.use_odometry && scan.odometry && last_odometry_ &&
+                            laser_reach_ < config_.short_view_range;
     const auto t_search = Clock::now();
-    const TrackResult tracked = track_scan(config_.tracking, es_, rng_, map_, points, scan, motion);
+    const TrackResult tracked = track_scan(short_view ? short_view_tracking_ : config_.tracking,
+                                           es_, rng_, map_, points, scan, motion);
     step.predicted = tracked.predicted;
     step.pose = tracked.result.pose;
     step.fitness = tracked.result.value;
@@ -322,6 +334,14 @@ void Slam::recover(const LaserScan& scan, const ScanPoints& points, const Motion
   }
 }
 
+void Slam::recompute_laser_reach() {
+  laser_reach_ = 0.0f;
+  for (const KeyScan& key : keys_) {
+    if (key.contributor != 0) continue;
+    for (const float r : key.points->range) laser_reach_ = std::max(laser_reach_, r);
+  }
+}
+
 bool Slam::scans_far_apart(const Pose2& pose) const {
   const MapUpdateConfig& u = config_.update;
   if (trajectory_.empty() || (u.beam_fill_min_step <= 0.0 && u.beam_fill_min_turn_deg <= 0.0)) {
@@ -345,6 +365,7 @@ bool Slam::add_key_scan(const ScanPoints& points, const Pose2& pose, double stam
   key.path_length = path_length_;
   const std::size_t k = graph_.add_node(pose);
   keys_.push_back(std::move(key));
+  for (const float r : points.range) laser_reach_ = std::max(laser_reach_, r);
   if (k > 0) {
     graph_.add_edge(key_edge(last_own_key_, k, pose.relative_to(graph_.node(last_own_key_))));
   }
@@ -874,6 +895,7 @@ void Slam::restore(SlamState s) {
   path_length_ = s.path_length;
   last_jumped_ = s.last_jumped;
   keys_ = std::move(s.keys);
+  recompute_laser_reach();
   contributors_ = std::move(s.contributors);
   // The contributors' chains start afresh: their next scans are tied to the graph by anchors.
   chains_.assign(contributors_.size(), std::nullopt);

@@ -11,6 +11,9 @@
 #include <numbers>
 #include <random>
 #include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "synthetic_world.hpp"
 
@@ -277,6 +280,19 @@ TEST(Slam, InvalidConfigurationIsRefusedNamingTheField) {
     EXPECT_NE(std::string(e.what()).find("init_sigma_xy"), std::string::npos) << e.what();
   }
   EXPECT_THROW(Slam{c}, std::invalid_argument);
+  for (const auto& [field, set] : std::vector<std::pair<std::string, void (*)(SlamConfig&)>>{
+           {"short_view_range", [](SlamConfig& s) { s.short_view_range = -1.0; }},
+           {"short_view_range", [](SlamConfig& s) { s.short_view_range = std::nan(""); }},
+           {"short_view_motion_hold", [](SlamConfig& s) { s.short_view_motion_hold = 1.0; }}}) {
+    SlamConfig bad;
+    set(bad);
+    try {
+      bad.validate();
+      ADD_FAILURE() << field << ": no exception";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
+    }
+  }
 }
 
 TEST(Slam, ScanWithoutUsableBeamsKeepsThePrediction) {

@@ -61,6 +61,15 @@ struct SlamConfig {
   RecoveryConfig recovery;
   /// Scans contributed by followers (Slam::contribute; contribution.hpp).
   ContributionConfig contribution;
+  /// A short laser, with odometry: while no scan written into the map so far had a beam as
+  /// long as short_view_range, the tracking holds along the motion (TrackingConfig::
+  /// motion_hold) with at least short_view_motion_hold. Such a laser sees no end of a corridor
+  /// it drives along, so the scan cannot tell how far the robot went; without the hold the
+  /// pose slid against the odometry where an earlier pass's drifted map pulled it (CSAIL with
+  /// an 8 m laser and noisy odometry broke on 2 of seeds 1-10, docs/benchmarks.md). A laser
+  /// that has seen farther is left as it is: on the full logs the hold cost accuracy. 0 = off.
+  double short_view_range = 10.0;       ///< metres
+  double short_view_motion_hold = 0.1;  ///< share of the fitness (TrackingConfig::motion_hold)
 
   /// Throws std::invalid_argument naming the field.
   void validate() const;
@@ -171,6 +180,9 @@ class Slam {
   std::size_t loop_closures() const { return loop_closures_; }
   std::size_t loop_closures_rejected() const { return loop_rejected_; }
   std::size_t key_scans() const { return keys_.size(); }
+  /// The longest beam of the leader's own key scans so far, metres (SlamConfig::
+  /// short_view_range compares it).
+  float laser_reach() const { return laser_reach_; }
   const std::optional<LoopEvent>& last_loop() const { return last_loop_; }
 
   /// Waits for a loop-closure search still running speculatively
@@ -215,6 +227,8 @@ class Slam {
   /// graph's edges: the chain edge into each own key scan takes the alignment with the one
   /// before; the older neighbours' alignments are added. Deterministic for any `threads`.
   void add_icp_edges(std::vector<PoseGraphEdge>& edges, unsigned threads, SlamFinish& out) const;
+  /// laser_reach_ from the own key scans, after they were replaced or cut back.
+  void recompute_laser_reach();
   /// The edge between two of the leader's own key scans (key edge weights).
   PoseGraphEdge key_edge(std::size_t from, std::size_t to, const Pose2& measurement) const;
 
@@ -228,6 +242,10 @@ class Slam {
   double path_length_ = 0.0;
   /// The last pose was a recovery jump: the next prediction continues the motion before it.
   bool last_jumped_ = false;
+  /// The longest beam of the leader's own key scans (SlamConfig::short_view_range).
+  float laser_reach_ = 0.0f;
+  /// config_.tracking with the short laser's hold (SlamConfig::short_view_motion_hold).
+  TrackingConfig short_view_tracking_;
 
   std::vector<KeyScan> keys_;
   /// The leader's own last key scan (contributed ones come in between).
