@@ -60,6 +60,9 @@ SlamRunStats run_slam(Slam& slam, app::ScanSource& source, std::size_t max_scans
   // on the topic, nor the idle time before the end.
   std::optional<Clock::time_point> first;
   Clock::time_point last;
+  // The short laser's hold (SlamConfig::short_view_range): said when it starts and when a
+  // longer beam ends it.
+  bool holding = false;
   while (max_scans == 0 || stats.scans < max_scans) {
     const std::optional<LaserScan> scan = source.next(stop);
     if (!scan) {
@@ -83,6 +86,19 @@ SlamRunStats run_slam(Slam& slam, app::ScanSource& source, std::size_t max_scans
       const PoorStretch& p = stats.poor_stretches.back();
       spdlog::info("scans match the map again: {} poor matches in scans {}-{}", p.weak, p.first,
                    p.last);
+    }
+    if (slam.short_view_hold() != holding) {
+      holding = !holding;
+      if (holding) {
+        spdlog::info(
+            "scan {}: no beam of {:g} m or more so far (a short laser): with odometry the "
+            "tracking holds along the motion where the map cannot tell how far the robot went "
+            "(--short-view-range, --short-view-motion-hold)",
+            stats.scans, slam.config().short_view_range);
+      } else {
+        spdlog::info("scan {}: a beam of {:.1f} m: the short laser's hold ends", stats.scans,
+                     slam.laser_reach());
+      }
     }
     if (on_step) on_step(*scan, step, stats.scans);
     last = Clock::now();
@@ -130,6 +146,9 @@ void write_slam_outputs(const std::string& dir, const Slam& slam, const SlamRunS
   j["loop_closures"] = slam.loop_closures();
   j["loop_closures_rejected"] = slam.loop_closures_rejected();
   j["key_scans"] = slam.key_scans();
+  // The longest beam of the key scans, and whether the short laser's hold was on at the end.
+  j["laser_reach_m"] = slam.laser_reach();
+  j["short_view_hold"] = slam.short_view_hold();
   j["map"] = {
       {"tiles", slam.map().tile_count()},
       {"tile_edge", slam.map().tile_edge()},

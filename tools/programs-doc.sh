@@ -78,7 +78,8 @@ robot publishes (`--scan-topic`) and, unless `--offline`, shares the map over DD
 then serves it to late joiners. It writes the map (ROS `map_server` PGM + YAML, a PNG with the
 trajectory), `trajectory.txt`, `map.digest` and `stats.json` into `--out`, and checkpoints for
 `--resume` (`docs/faults.md`). `stats.json` has the time per scan, the SLAM's counters (with
-`poor_stretches`, the scans where it may have lost track: `docs/slam.md`), every parameter
+`poor_stretches`, the scans where it may have lost track, and `laser_reach_m` and
+`short_view_hold`, the short laser's hold: `docs/slam.md`), every parameter
 and, when sharing, a `dds` section (bytes sent against republishing the whole map).
 With `--scan-topic` it maps that robot's scans in arrival order, as it would from a log (the
 same seed gives the trajectory of an `--offline` run); it ends after `--idle-exit` seconds

@@ -202,8 +202,7 @@ SlamStep Slam::process_scan(const LaserScan& scan) {
                                   motion.last.pose.compose(a.pose.relative_to(b.pose))};
     }
     motion.odometry = last_odometry_;
-    const bool short_view = config_.tracking.use_odometry && scan.odometry && last_odometry_ &&
-                            laser_reach_ < config_.short_view_range;
+    const bool short_view = short_view_hold() && scan.odometry && last_odometry_;
     const auto t_search = Clock::now();
     const TrackResult tracked = track_scan(short_view ? short_view_tracking_ : config_.tracking,
                                            es_, rng_, map_, points, scan, motion);

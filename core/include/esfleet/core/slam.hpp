@@ -183,6 +183,12 @@ class Slam {
   /// The longest beam of the leader's own key scans so far, metres (SlamConfig::
   /// short_view_range compares it).
   float laser_reach() const { return laser_reach_; }
+  /// Whether the next scan with odometry is tracked with the short laser's hold: odometry on,
+  /// the hold on, and laser_reach() under SlamConfig::short_view_range.
+  bool short_view_hold() const {
+    return config_.tracking.use_odometry && config_.short_view_motion_hold > 0.0 &&
+           laser_reach_ < config_.short_view_range;
+  }
   const std::optional<LoopEvent>& last_loop() const { return last_loop_; }
 
   /// Waits for a loop-closure search still running speculatively
