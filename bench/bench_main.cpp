@@ -67,7 +67,8 @@ int main(int argc, char** argv) {
       "every k-th scan, laser only and with noisy odometry, over seeds; scored on the relations "
       "whose both ends are kept and on relations derived from the reference poses (evaluation "
       "only), with the floor of that score where the run on every scan of the log is in the "
-      "set; one JSON file and a markdown table");
+      "set; one JSON file and two markdown tables (per log and k; per gap of the derived "
+      "relations)");
   bench::add_generalise_options(*generalise_cmd, generalise);
   bench::ContributeBenchOptions contribute;
   CLI::App* contribute_cmd = cli.add_subcommand(

@@ -208,9 +208,8 @@ void attach_floors(const std::vector<GeneraliseLog>& logs, const std::vector<Run
 /// A statistic that is undefined without samples is null in the JSON, not 0.
 nlohmann::json stat(std::size_t n, double v) { return n > 0 ? nlohmann::json(v) : nullptr; }
 
-nlohmann::json run_json(const GeneraliseLog& log, const RunSpec& s, const RunResult& r) {
-  const RelationsResult& rel = r.relations.result;
-  const DerivedRelationsResult& d = r.derived.result;
+/// One object per gap: its relations' count and mean errors.
+nlohmann::json gaps_json(const DerivedRelationsResult& d) {
   nlohmann::json gaps = nlohmann::json::array();
   for (const DerivedGap& g : d.gaps) {
     gaps.push_back({{"gap", g.gap},
@@ -218,6 +217,12 @@ nlohmann::json run_json(const GeneraliseLog& log, const RunSpec& s, const RunRes
                     {"trans_mean", stat(g.count, g.trans_mean)},
                     {"rot_mean_deg", stat(g.count, g.rot_mean_deg)}});
   }
+  return gaps;
+}
+
+nlohmann::json run_json(const GeneraliseLog& log, const RunSpec& s, const RunResult& r) {
+  const RelationsResult& rel = r.relations.result;
+  const DerivedRelationsResult& d = r.derived.result;
   return {
       {"log", log.name},
       {"k", s.k},
@@ -241,11 +246,15 @@ nlohmann::json run_json(const GeneraliseLog& log, const RunSpec& s, const RunRes
         {"trans_std", stat(d.count, d.trans_std)},
         {"rot_mean_deg", stat(d.count, d.rot_mean_deg)},
         {"trans_max", stat(d.count, d.trans_max)},
-        {"gaps", gaps}}},
-      {"derived_floor", r.floor ? nlohmann::json{{"count", r.floor->result.count},
-                                                 {"trans_mean", stat(r.floor->result.count,
-                                                                     r.floor->result.trans_mean)}}
-                                : nlohmann::json(nullptr)},
+        {"gaps", gaps_json(d)}}},
+      {"derived_floor",
+       r.floor
+           ? nlohmann::json{{"count", r.floor->result.count},
+                            {"trans_mean", stat(r.floor->result.count, r.floor->result.trans_mean)},
+                            {"rot_mean_deg",
+                             stat(r.floor->result.count, r.floor->result.rot_mean_deg)},
+                            {"gaps", gaps_json(r.floor->result)}}
+           : nlohmann::json(nullptr)},
       {"timing",
        {{"scan_ms_median", r.scan_ms.median}, {"scan_ms_p95", r.scan_ms.p95}, {"run_s", r.run_s}}}};
 }
@@ -472,6 +481,10 @@ int run_generalise(GeneraliseOptions& o) {
     std::size_t scans = 0;
     std::vector<double> derived, relations, floor;
     std::size_t relations_used = 0;
+    /// Per gap (kGaps' order), each run's mean translation error and its floor's; the
+    /// derived relations' mean rotation error.
+    std::vector<std::vector<double>> gap_derived, gap_floor;
+    std::vector<double> rotation;
   };
   std::vector<Group> groups;
   for (std::size_t i = 0; i < specs.size(); ++i) {
@@ -480,7 +493,17 @@ int run_generalise(GeneraliseOptions& o) {
       return x.log == s.log && x.k == s.k && x.mode == s.mode;
     });
     if (g == groups.end()) {
-      groups.push_back({s.log, s.k, s.mode, 0, {}, {}, {}, 0});
+      groups.push_back({s.log,
+                        s.k,
+                        s.mode,
+                        0,
+                        {},
+                        {},
+                        {},
+                        0,
+                        std::vector<std::vector<double>>(kGaps.size()),
+                        std::vector<std::vector<double>>(kGaps.size()),
+                        {}});
       g = groups.end() - 1;
     }
     const RunResult& r = results[i];
@@ -490,9 +513,24 @@ int run_generalise(GeneraliseOptions& o) {
     if (r.relations.result.matched > 0) g->relations.push_back(r.relations.result.trans_mean);
     if (r.floor && r.floor->result.count > 0) g->floor.push_back(r.floor->result.trans_mean);
     g->relations_used = r.relations.used;
+    if (r.derived.result.count > 0) g->rotation.push_back(r.derived.result.rot_mean_deg);
+    for (std::size_t j = 0; j < kGaps.size(); ++j) {
+      if (j < r.derived.result.gaps.size() && r.derived.result.gaps[j].count > 0) {
+        g->gap_derived[j].push_back(r.derived.result.gaps[j].trans_mean);
+      }
+      if (r.floor && j < r.floor->result.gaps.size() && r.floor->result.gaps[j].count > 0) {
+        g->gap_floor[j].push_back(r.floor->result.gaps[j].trans_mean);
+      }
+    }
   }
   nlohmann::json summary = nlohmann::json::array();
   for (const Group& g : groups) {
+    nlohmann::json gaps = nlohmann::json::array();
+    for (std::size_t j = 0; j < kGaps.size(); ++j) {
+      gaps.push_back({{"gap", kGaps[j]},
+                      {"trans_mean", range_json(range_of(g.gap_derived[j]))},
+                      {"floor_trans_mean", range_json(range_of(g.gap_floor[j]))}});
+    }
     summary.push_back({{"log", logs[g.log].name},
                        {"k", g.k},
                        {"mode", mode_name(g.mode)},
@@ -501,7 +539,9 @@ int run_generalise(GeneraliseOptions& o) {
                        {"derived_trans_mean", range_json(range_of(g.derived))},
                        {"derived_floor_trans_mean", range_json(range_of(g.floor))},
                        {"relations_used", g.relations_used},
-                       {"relations_trans_mean", range_json(range_of(g.relations))}});
+                       {"relations_trans_mean", range_json(range_of(g.relations))},
+                       {"derived_rot_mean_deg", range_json(range_of(g.rotation))},
+                       {"derived_gaps", gaps}});
   }
   nlohmann::json parameters = nlohmann::json::object();
   for (const auto& [name, value] : o.params.changed()) parameters[name] = value;
@@ -559,16 +599,46 @@ int run_generalise(GeneraliseOptions& o) {
   }
   const bool any_floor =
       std::any_of(groups.begin(), groups.end(), [](const Group& g) { return !g.floor.empty(); });
+  // Per gap, the median over seeds, and the floor's where there is one: where a sparse run
+  // loses accuracy (locally or over long stretches) and where it cannot be ranked.
   std::printf(
-      "\nCells: min–max over seeds of each run's mean translation error. derived: relations "
-      "from the reference poses, gaps %s kept scans with a reference;%s relations: Kümmerle "
-      "relations with both ends kept (count in brackets). JSON: %s\n",
+      "\n| log | k | mode | gap 1 | gap 5 | gap 20 | gap 100 | rotation |\n"
+      "|---|---|---|---|---|---|---|---|\n");
+  for (const auto& [l, k] : rows) {
+    for (const Group& g : groups) {
+      if (g.log != l || g.k != k) continue;
+      std::string cells;
+      for (std::size_t j = 0; j < kGaps.size(); ++j) {
+        const Range d = range_of(g.gap_derived[j]);
+        const Range f = range_of(g.gap_floor[j]);
+        char buf[64] = "—";
+        if (d.n > 0 && f.n > 0) {
+          std::snprintf(buf, sizeof buf, "%.3f (%.3f)", d.median, f.median);
+        } else if (d.n > 0) {
+          std::snprintf(buf, sizeof buf, "%.3f", d.median);
+        }
+        cells += std::string(" ") + buf + " |";
+      }
+      const Range rot = range_of(g.rotation);
+      char rotation[32] = "—";
+      if (rot.n > 0) std::snprintf(rotation, sizeof rotation, "%.1f°", rot.median);
+      std::printf("| %s | %zu | %s |%s %s |\n", logs[l].name.c_str(), k,
+                  g.mode == GeneraliseMode::kLaserOnly ? "laser only" : "noisy odometry",
+                  cells.c_str(), rotation);
+    }
+  }
+  std::printf(
+      "\nFirst table: min–max over seeds of each run's mean translation error. derived: "
+      "relations from the reference poses, gaps %s kept scans with a reference;%s relations: "
+      "Kümmerle relations with both ends kept (count in brackets). Second table: the derived "
+      "relations' mean translation error per gap (m) and mean rotation error, median over seeds"
+      "%s. JSON: %s\n",
       "1, 5, 20, 100",
       any_floor ? " floor: the run on every scan of the same log (csail for csail-keys; same "
                   "mode and seed), its poses at the kept scans on the same derived relations "
                   "(the reference is GMapping's path: the score cannot rank runs below that);"
                 : "",
-      o.output.c_str());
+      any_floor ? " (in brackets: the floor's median)" : "", o.output.c_str());
   std::fflush(stdout);
   if (failed > 0) {
     std::fprintf(stderr, "esfleet-bench generalise: %zu of %zu runs failed (see above)\n", failed,

@@ -5,7 +5,7 @@
 # same scores. Then a simulated log (--logs sim, simulation seed 1, 60 s: the robot turns 60 deg
 # in place before it drives) scored against its true poses, laser only and with noisy odometry.
 # Last, CSAIL whole and every 4th scan, laser only, seed 1: the every-4th run gets the floor of
-# its derived score (the whole run's poses at its scans), the whole run none.
+# its derived score (the whole run's poses at its scans), overall and per gap, the whole run none.
 #
 # usage: generalise_smoke_test.sh BIN_DIR DATA_DIR
 set -euo pipefail
@@ -130,6 +130,11 @@ PY
 cat "$work/floor.md"
 grep -q '^| csail | 4 | 497 | [0-9.]* (floor [0-9.]*) |' "$work/floor.md" ||
   { echo "FAIL: no floor in the csail k=4 row"; exit 1; }
+# The per-gap table: k=4 with its floor in brackets (no relation 100 of its kept scans apart).
+grep -q '^| csail | 4 | laser only | [0-9.]* ([0-9.]*) | [0-9.]* ([0-9.]*) | [0-9.]* ([0-9.]*) | — | [0-9.]*° |$' \
+  "$work/floor.md" || { echo "FAIL: no per-gap row with floors for csail k=4"; exit 1; }
+grep -q '^| csail | 1 | laser only | [0-9.]* | [0-9.]* | [0-9.]* | [0-9.]* | [0-9.]*° |$' \
+  "$work/floor.md" || { echo "FAIL: no per-gap row for csail k=1"; exit 1; }
 python3 - "$work/floor.json" <<'PY'
 import json, sys
 
@@ -143,6 +148,24 @@ else:
     f, d = runs[4]["derived_floor"], runs[4]["derived"]
     if f is None or f["count"] != d["count"] or not f["trans_mean"] > 0:
         errors.append(f"k=4: floor {f}, expected one over the run's {d['count']} relations")
+    else:
+        # Per gap, over the same relations as the run; together, its overall mean.
+        fg = [(g["gap"], g["count"]) for g in f["gaps"]]
+        dg = [(g["gap"], g["count"]) for g in d["gaps"]]
+        if fg != dg:
+            errors.append(f"k=4: floor gaps {fg}, the run's {dg}")
+        total = sum(g["count"] * g["trans_mean"] for g in f["gaps"] if g["count"] > 0)
+        if abs(total / f["count"] - f["trans_mean"]) > 1e-9:
+            errors.append(f'k=4: floor per gap averages {total / f["count"]}, '
+                          f'its mean is {f["trans_mean"]}')
+summary = {s["k"]: s for s in json.load(open(sys.argv[1]))["summary"]}
+for k, want_floor in ((1, False), (4, True)):
+    gaps = summary[k]["derived_gaps"] if k in summary else []
+    if [g["gap"] for g in gaps] != [1, 5, 20, 100]:
+        errors.append(f"summary k={k}: gaps {[g['gap'] for g in gaps]}")
+    for g in gaps[:3]:
+        if g["trans_mean"] is None or (g["floor_trans_mean"] is not None) != want_floor:
+            errors.append(f"summary k={k} gap {g['gap']}: {g}")
 if errors:
     print("FAIL:\n  " + "\n  ".join(errors))
     sys.exit(1)
