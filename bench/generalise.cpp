@@ -476,8 +476,8 @@ int run_generalise(GeneraliseOptions& o) {
 
   // Summary per (log, k, mode) over seeds, in run order.
   struct Group {
-    std::size_t log, k;
-    GeneraliseMode mode;
+    std::size_t log = 0, k = 0;
+    GeneraliseMode mode = GeneraliseMode::kLaserOnly;
     std::size_t scans = 0;
     std::vector<double> derived, relations, floor;
     std::size_t relations_used = 0;
@@ -493,17 +493,13 @@ int run_generalise(GeneraliseOptions& o) {
       return x.log == s.log && x.k == s.k && x.mode == s.mode;
     });
     if (g == groups.end()) {
-      groups.push_back({s.log,
-                        s.k,
-                        s.mode,
-                        0,
-                        {},
-                        {},
-                        {},
-                        0,
-                        std::vector<std::vector<double>>(kGaps.size()),
-                        std::vector<std::vector<double>>(kGaps.size()),
-                        {}});
+      Group fresh;
+      fresh.log = s.log;
+      fresh.k = s.k;
+      fresh.mode = s.mode;
+      fresh.gap_derived.resize(kGaps.size());
+      fresh.gap_floor.resize(kGaps.size());
+      groups.push_back(std::move(fresh));
       g = groups.end() - 1;
     }
     const RunResult& r = results[i];
@@ -601,9 +597,11 @@ int run_generalise(GeneraliseOptions& o) {
       std::any_of(groups.begin(), groups.end(), [](const Group& g) { return !g.floor.empty(); });
   // Per gap, the median over seeds, and the floor's where there is one: where a sparse run
   // loses accuracy (locally or over long stretches) and where it cannot be ranked.
-  std::printf(
-      "\n| log | k | mode | gap 1 | gap 5 | gap 20 | gap 100 | rotation |\n"
-      "|---|---|---|---|---|---|---|---|\n");
+  std::printf("\n| log | k | mode |");
+  for (const std::size_t gap : kGaps) std::printf(" gap %zu |", gap);
+  std::printf(" rotation |\n|---|---|---|");
+  for (std::size_t j = 0; j < kGaps.size(); ++j) std::printf("---|");
+  std::printf("---|\n");
   for (const auto& [l, k] : rows) {
     for (const Group& g : groups) {
       if (g.log != l || g.k != k) continue;
