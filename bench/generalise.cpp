@@ -1,6 +1,7 @@
 #include "generalise.hpp"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -69,21 +70,36 @@ std::vector<Relation> read_rel(const std::string& path) {
   return relations;
 }
 
+/// A simulated world of --logs: its map (data/worlds/<dir>/map.yaml), the clearance its robot
+/// keeps and its logs' name prefix.
+struct SimWorld {
+  const char* log;  ///< the --logs value
+  const char* dir;  ///< under <data-dir>/worlds/
+  double clearance;
+  const char* prefix;  ///< its logs are <prefix><simulation seed>
+};
+/// fr079's map narrows to about 0.6 m where its corridor meets the hall (the recording robot
+/// passed; 0.35 m of clearance leaves the robot 25 m^2 of the corridor's west half, 0.25 m the
+/// whole corridor and several rooms).
+constexpr std::array<SimWorld, 2> kSimWorlds = {
+    {{"sim", "mit-csail", 0.35, "sim-"}, {"sim-fr079", "fr079", 0.25, "sim-fr079-"}}};
+
 /// A simulated log (evaluation data only: the SLAM gets its scans through slam_input): the
 /// robot of simulation seed `seed` in `world`, one scan per second at up to 1 m/s for
 /// `duration_s`, 181 beams over 180 degrees, 30 m range. Every scan's reference pose is the
 /// truth, and so is its odometry field (the source of the noisy odometry, as the corrected
 /// poses are for fr079). No hand-made relations.
-GeneraliseLog make_simulated_log(const sim::World& world, std::uint64_t seed, double duration_s,
-                                 const std::string& world_path) {
+GeneraliseLog make_simulated_log(const sim::World& world, const SimWorld& w, std::uint64_t seed,
+                                 double duration_s, const std::string& world_path) {
   sim::FleetConfig fc;
   fc.seed = seed;
   fc.rate = 1.0;
   fc.motion.speed = 1.0;
+  fc.motion.clearance = w.clearance;
   fc.start_stamp = 1000.0;
   sim::Fleet fleet(world, fc);
   GeneraliseLog log;
-  log.name = "sim-" + std::to_string(seed);
+  log.name = w.prefix + std::to_string(seed);
   log.path = world_path;
   const auto ticks = static_cast<std::size_t>(std::floor(duration_s * fc.rate));
   for (std::size_t i = 0; i < ticks; ++i) {
@@ -128,11 +144,13 @@ std::vector<GeneraliseLog> load_logs(const GeneraliseOptions& o,
         for (const LaserScan& s : keys) key_poses.push_back(s.odometry.value_or(Pose2{}));
         logs.push_back(
             make_raw_log_with_keys(raw, key_index, key_poses, read_rel(csail_rel), csail_raw));
-      } else if (name == "sim") {
-        const std::string world_path = o.data_dir + "/worlds/mit-csail/map.yaml";
+      } else if (const auto w = std::find_if(kSimWorlds.begin(), kSimWorlds.end(),
+                                             [&](const SimWorld& x) { return name == x.log; });
+                 w != kSimWorlds.end()) {
+        const std::string world_path = o.data_dir + "/worlds/" + w->dir + "/map.yaml";
         const sim::World world = sim::load_world(world_path);
         for (const std::uint64_t seed : sim_seeds) {
-          logs.push_back(make_simulated_log(world, seed, o.sim_duration_s, world_path));
+          logs.push_back(make_simulated_log(world, *w, seed, o.sim_duration_s, world_path));
         }
       } else {
         std::vector<LaserScan> scans = read_log(fr079, o.reader);
@@ -298,27 +316,29 @@ void add_generalise_options(CLI::App& cmd, GeneraliseOptions& o) {
   cmd.add_option("--data-dir", o.data_dir,
                  "the directory holding mit-csail/ (mit-csail.clf.gz, csail-corrected.log.gz, "
                  "mit-csail.relations), fr079/ (fr079-corrected.log.gz, fr079.relations) and "
-                 "worlds/mit-csail/map.yaml (--logs sim)")
+                 "worlds/mit-csail/map.yaml and worlds/fr079/map.yaml (--logs sim, sim-fr079)")
       ->capture_default_str();
   cmd.add_option("--logs", o.logs,
                  "logs to run: csail-keys (the 406 key scans of csail-corrected.log.gz), csail "
-                 "(mit-csail.clf.gz), fr079, sim (simulated, one log per --sim-seeds; "
-                 "comma-separated)")
+                 "(mit-csail.clf.gz), fr079, sim and sim-fr079 (simulated in the CSAIL and "
+                 "the Freiburg 079 world, one log per --sim-seeds; comma-separated)")
       ->delimiter(',')
-      ->check(CLI::IsMember({"csail-keys", "csail", "fr079", "sim"}))
+      ->check(CLI::IsMember({"csail-keys", "csail", "fr079", "sim", "sim-fr079"}))
       ->capture_default_str();
   cmd.add_option("--sim-seeds", o.sim_seeds,
-                 "--logs sim: one log per simulation seed (1-4, 1,2,3 or a mix): a robot driving "
-                 "to random goals in data/worlds/mit-csail at up to 1 m/s, one 181-beam 1 deg "
-                 "scan per second (a key-scan log), scored against its true poses")
+                 "--logs sim, sim-fr079: one log per simulation seed (1-4, 1,2,3 or a mix): a "
+                 "robot driving to random goals in data/worlds/mit-csail (0.35 m from walls) or "
+                 "data/worlds/fr079 (0.25 m) at up to 1 m/s, one 181-beam 1 deg scan per second "
+                 "(a key-scan log), scored against its true poses")
       ->capture_default_str();
   cmd.add_option("--sim-duration", o.sim_duration_s,
-                 "--logs sim: seconds of each simulated log (as many scans)")
+                 "--logs sim, sim-fr079: seconds of each simulated log (as many scans)")
       ->check(CLI::Range(2.0, 36000.0))
       ->capture_default_str();
   cmd.add_option("--ks", o.ks,
                  "keep every k-th scan of csail and fr079, for each k given (comma-separated; "
-                 "default csail 1,2,3,4,5 and fr079 1,2,4,6,8); csail-keys and sim always run "
+                 "default csail 1,2,3,4,5 and fr079 1,2,4,6,8); csail-keys and the simulated logs "
+                 "always run "
                  "whole")
       ->delimiter(',')
       ->check(CLI::Range(1, 1000));
