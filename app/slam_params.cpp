@@ -190,6 +190,9 @@ void add_slam_params(ParamTable& t, SlamConfig* s, CarmenReaderOptions* r) {
   t.add_double("recovery_fair_short_jump", &s->recovery.fair_short_jump,
                "... but a jump of at most this share of the motion predicted since the last "
                "scan needs only recovery_min_gain's gain (0 = the fair gains for every jump)");
+  t.add_switch("recovery_fair_recent_pace", &s->recovery.fair_recent_pace,
+               "laser only: ... or of the longest of the last 5 steps, if longer (after a turn "
+               "in place the robot drives off at its pace while the prediction stands still)");
   t.add_double("recovery_clear_gain", &s->recovery.clear_gain,
                "a recovered pose at least this much more consistent than the tracked one "
                "replaces it however far the jump (0 = no cap)");

@@ -325,7 +325,12 @@ void Slam::recover(const LaserScan& scan, const ScanPoints& points, const Motion
   const double jump_xy = std::hypot(jump.x, jump.y);
   const double d =
       jump_xy / scaled.window_xy + std::abs(jump.theta) / deg_to_rad(scaled.window_theta_deg);
-  const bool as_weak = judged_as_weak(rc, weak, jump_xy, motion_length);
+  double moved = motion_length;
+  if (!measured && rc.fair_recent_pace) {
+    for_recent_steps(trajectory_,
+                     [&moved](const Pose2& s) { moved = std::max(moved, std::hypot(s.x, s.y)); });
+  }
+  const bool as_weak = judged_as_weak(rc, weak, jump_xy, moved);
   if (overlaps_enough(rc, r.result.value, step.fitness) && gain >= gain_needed(rc, as_weak, d)) {
     step.recovered = true;
     step.pose = r.result.pose;
