@@ -338,8 +338,7 @@ void add_generalise_options(CLI::App& cmd, GeneraliseOptions& o) {
   cmd.add_option("--ks", o.ks,
                  "keep every k-th scan of csail and fr079, for each k given (comma-separated; "
                  "default csail 1,2,3,4,5 and fr079 1,2,4,6,8); csail-keys and the simulated logs "
-                 "always run "
-                 "whole")
+                 "always run whole")
       ->delimiter(',')
       ->check(CLI::Range(1, 1000));
   cmd.add_option("--modes", o.modes,
