@@ -644,13 +644,17 @@ int run_generalise(GeneraliseOptions& o) {
                   cells.c_str(), rotation);
     }
   }
+  std::string gap_list;
+  for (const std::size_t gap : kGaps) {
+    gap_list += (gap_list.empty() ? "" : ", ") + std::to_string(gap);
+  }
   std::printf(
       "\nFirst table: min–max over seeds of each run's mean translation error. derived: "
       "relations from the reference poses, gaps %s kept scans with a reference;%s relations: "
       "Kümmerle relations with both ends kept (count in brackets). Second table: the derived "
       "relations' mean translation error per gap (m) and mean rotation error, median over seeds"
       "%s. JSON: %s\n",
-      "1, 5, 20, 100",
+      gap_list.c_str(),
       any_floor ? " floor: the run on every scan of the same log (csail for csail-keys; same "
                   "mode and seed), its poses at the kept scans on the same derived relations "
                   "(the reference is GMapping's path: the score cannot rank runs below that);"
