@@ -84,19 +84,33 @@ struct SimWorld {
 constexpr std::array<SimWorld, 2> kSimWorlds = {
     {{"sim", "mit-csail", 0.35, "sim-"}, {"sim-fr079", "fr079", 0.25, "sim-fr079-"}}};
 
-/// A simulated log (evaluation data only: the SLAM gets its scans through slam_input): the
-/// robot of simulation seed `seed` in `world`, one scan per second at up to 1 m/s for
-/// `duration_s`, 181 beams over 180 degrees, 30 m range. Every scan's reference pose is the
-/// truth, and so is its odometry field (the source of the noisy odometry, as the corrected
-/// poses are for fr079). No hand-made relations.
-GeneraliseLog make_simulated_log(const sim::World& world, const SimWorld& w, std::uint64_t seed,
-                                 double duration_s, const std::string& world_path) {
+/// The simulation of the robot of --logs world `w` with the options' motion and laser: one scan
+/// per second (by default at up to 1 m/s, 181 beams over 180 degrees, 30 m range). Throws
+/// std::invalid_argument naming the bench's flag (--sim-speed) for a value out of range.
+sim::FleetConfig simulated_robot(const GeneraliseOptions& o, const SimWorld& w) {
   sim::FleetConfig fc;
-  fc.seed = seed;
   fc.rate = 1.0;
-  fc.motion.speed = 1.0;
-  fc.motion.clearance = w.clearance;
+  fc.motion = o.sim_motion;
+  fc.motion.clearance = o.sim_clearance >= 0.0 ? o.sim_clearance : w.clearance;
+  fc.laser = o.sim_laser;
   fc.start_stamp = 1000.0;
+  try {
+    fc.validate();
+  } catch (const std::invalid_argument& e) {
+    const std::string what = e.what();
+    throw std::invalid_argument(what.rfind("--", 0) == 0 ? "--sim-" + what.substr(2) : what);
+  }
+  return fc;
+}
+
+/// A simulated log (evaluation data only: the SLAM gets its scans through slam_input): the
+/// robot `fc` of simulation seed `seed` in `world` for `duration_s`. Every scan's reference pose
+/// is the truth, and so is its odometry field (the source of the noisy odometry, as the
+/// corrected poses are for fr079). No hand-made relations.
+GeneraliseLog make_simulated_log(const sim::World& world, const SimWorld& w, sim::FleetConfig fc,
+                                 std::uint64_t seed, double duration_s,
+                                 const std::string& world_path) {
+  fc.seed = seed;
   sim::Fleet fleet(world, fc);
   GeneraliseLog log;
   log.name = w.prefix + std::to_string(seed);
@@ -150,7 +164,8 @@ std::vector<GeneraliseLog> load_logs(const GeneraliseOptions& o,
         const std::string world_path = o.data_dir + "/worlds/" + w->dir + "/map.yaml";
         const sim::World world = sim::load_world(world_path);
         for (const std::uint64_t seed : sim_seeds) {
-          logs.push_back(make_simulated_log(world, *w, seed, o.sim_duration_s, world_path));
+          logs.push_back(make_simulated_log(world, *w, simulated_robot(o, *w), seed,
+                                            o.sim_duration_s, world_path));
         }
       } else {
         std::vector<LaserScan> scans = read_log(fr079, o.reader);
@@ -335,6 +350,26 @@ void add_generalise_options(CLI::App& cmd, GeneraliseOptions& o) {
                  "--logs sim, sim-fr079: seconds of each simulated log (as many scans)")
       ->check(CLI::Range(2.0, 36000.0))
       ->capture_default_str();
+  cmd.add_option("--sim-speed", o.sim_motion.speed,
+                 "--logs sim, sim-fr079: the robot's top speed, m/s (at one scan a second, the "
+                 "most it moves between scans)")
+      ->capture_default_str();
+  cmd.add_option("--sim-turn-rate", o.sim_motion.turn_rate_deg,
+                 "--logs sim, sim-fr079: the robot's top turn rate, deg/s")
+      ->capture_default_str();
+  cmd.add_option("--sim-clearance", o.sim_clearance,
+                 "--logs sim, sim-fr079: least distance of the robot to walls, m (default: the "
+                 "world's, 0.35 in mit-csail, 0.25 in fr079)")
+      ->check(CLI::Range(0.0, 10.0));
+  cmd.add_option("--sim-max-range", o.sim_laser.max_range,
+                 "--logs sim, sim-fr079: the laser's range, m (no-return readings report it)")
+      ->capture_default_str();
+  cmd.add_option("--sim-range-noise", o.sim_laser.range_noise,
+                 "--logs sim, sim-fr079: sigma of the laser's range noise, m")
+      ->capture_default_str();
+  cmd.add_option("--sim-dropout", o.sim_laser.dropout,
+                 "--logs sim, sim-fr079: probability per beam of a no-return")
+      ->capture_default_str();
   cmd.add_option("--ks", o.ks,
                  "keep every k-th scan of csail and fr079, for each k given (comma-separated; "
                  "default csail 1,2,3,4,5 and fr079 1,2,4,6,8); csail-keys and the simulated logs "
@@ -404,6 +439,11 @@ int run_generalise(GeneraliseOptions& o) {
   } catch (const std::invalid_argument& e) {
     throw app::UsageError(std::string("--sim-seeds: ") + e.what());
   }
+  try {
+    simulated_robot(o, kSimWorlds.front());  // the --sim-* flags, before any log is read
+  } catch (const std::invalid_argument& e) {
+    throw app::UsageError(e.what());
+  }
   const std::vector<GeneraliseLog> logs = load_logs(o, sim_seeds);
   std::vector<RunSpec> specs;
   for (std::size_t l = 0; l < logs.size(); ++l) {
@@ -443,6 +483,31 @@ int run_generalise(GeneraliseOptions& o) {
       std::fprintf(stderr, "; raw scans %zu..%zu, %g apart (median, %g..%g)",
                    log.match_index.front(), log.match_index.back(), median, *lo, *hi);
     }
+    // How far the robot moved between consecutive scans with a reference, and how far the
+    // laser saw: what a run had to hold through.
+    std::vector<double> step_m, step_deg;
+    for (std::size_t i = 1; i < log.reference.size(); ++i) {
+      if (!log.reference[i] || !log.reference[i - 1]) continue;
+      const Pose2 d = log.reference[i]->relative_to(*log.reference[i - 1]);
+      step_m.push_back(std::hypot(d.x, d.y));
+      step_deg.push_back(std::abs(rad_to_deg(d.theta)));
+    }
+    if (!step_m.empty()) {
+      const double max_m = *std::max_element(step_m.begin(), step_m.end());
+      const double max_deg = *std::max_element(step_deg.begin(), step_deg.end());
+      info["reference_step"] = {{"median_m", app::summarize(step_m).median},
+                                {"max_m", max_m},
+                                {"median_deg", app::summarize(step_deg).median},
+                                {"max_deg", max_deg}};
+      std::fprintf(stderr, "; steps up to %.2f m and %.0f deg", max_m, max_deg);
+    }
+    float farthest = 0.0f;
+    for (const LaserScan& scan : log.scans) {
+      for (std::size_t b = 0; b < scan.ranges.size(); ++b) {
+        if (!scan.is_no_return(b)) farthest = std::max(farthest, scan.ranges[b]);
+      }
+    }
+    info["farthest_return_m"] = farthest;
     std::fprintf(stderr, "\n");
     log_info.push_back(info);
   }
@@ -561,22 +626,31 @@ int run_generalise(GeneraliseOptions& o) {
   nlohmann::json parameters = nlohmann::json::object();
   for (const auto& [name, value] : o.params.changed()) parameters[name] = value;
   nlohmann::json seed_list = seeds;
-  const nlohmann::json out = {{"data_dir", o.data_dir},
-                              {"seeds", seed_list},
-                              {"max_scans", o.max_scans},
-                              {"beam_step", o.beam_step},
-                              {"paper", o.paper},
-                              {"changed_parameters", parameters},
-                              {"derived_gaps", kGaps},
-                              {"logs", log_info},
-                              {"noise",
-                               {{"distance_frac", o.noise.distance_frac},
-                                {"distance_base_m", o.noise.distance_base_m},
-                                {"turn_frac", o.noise.turn_frac},
-                                {"turn_base_deg", o.noise.turn_base_deg},
-                                {"turn_per_m_deg", o.noise.turn_per_m_deg}}},
-                              {"runs", runs},
-                              {"summary", summary}};
+  const nlohmann::json out = {
+      {"data_dir", o.data_dir},
+      {"seeds", seed_list},
+      {"max_scans", o.max_scans},
+      {"beam_step", o.beam_step},
+      {"sim",
+       {{"speed", o.sim_motion.speed},
+        {"turn_rate_deg", o.sim_motion.turn_rate_deg},
+        {"clearance",
+         o.sim_clearance >= 0.0 ? nlohmann::json(o.sim_clearance) : nlohmann::json("per world")},
+        {"max_range", o.sim_laser.max_range},
+        {"range_noise", o.sim_laser.range_noise},
+        {"dropout", o.sim_laser.dropout}}},
+      {"paper", o.paper},
+      {"changed_parameters", parameters},
+      {"derived_gaps", kGaps},
+      {"logs", log_info},
+      {"noise",
+       {{"distance_frac", o.noise.distance_frac},
+        {"distance_base_m", o.noise.distance_base_m},
+        {"turn_frac", o.noise.turn_frac},
+        {"turn_base_deg", o.noise.turn_base_deg},
+        {"turn_per_m_deg", o.noise.turn_per_m_deg}}},
+      {"runs", runs},
+      {"summary", summary}};
   try {
     write_file_atomically(o.output, out.dump(2) + "\n");
   } catch (const std::exception& e) {

@@ -14,8 +14,17 @@
 #include "esfleet/core/carmen_reader.hpp"
 #include "esfleet/core/odometry_noise.hpp"
 #include "esfleet/core/slam.hpp"
+#include "esfleet/sim/laser_model.hpp"
+#include "esfleet/sim/robot.hpp"
 
 namespace esfleet::bench {
+
+/// The simulated robot's motion unless --sim-speed and --sim-turn-rate say otherwise.
+inline sim::MotionConfig default_sim_motion() {
+  sim::MotionConfig m;
+  m.speed = 1.0;
+  return m;
+}
 
 struct GeneraliseOptions {
   std::string data_dir = "data";  ///< holds mit-csail/ and fr079/ as in the repository
@@ -29,6 +38,12 @@ struct GeneraliseOptions {
   /// to 1 m/s scanning once a second in the MIT CSAIL world, scored against its true poses.
   std::string sim_seeds = "1-4";
   double sim_duration_s = 400.0;
+  /// The simulated robot's motion and laser (--sim-speed etc.: harder conditions than the
+  /// default 1 m/s, 60 deg/s, 30 m, 1 cm noise). Its clearance is the world's unless
+  /// sim_clearance >= 0.
+  sim::MotionConfig sim_motion = default_sim_motion();
+  sim::LaserConfig sim_laser;
+  double sim_clearance = -1.0;
   std::size_t max_scans = 0;  ///< at most this many scans per run, after subsampling (0 = all)
   std::size_t beam_step = 1;  ///< every run's scans keep every beam_step-th beam (keep_every_beam)
   int jobs = 1;               ///< runs in parallel (the scores do not depend on it)

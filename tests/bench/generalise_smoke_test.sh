@@ -3,7 +3,8 @@
 # every 3rd scan, 60 scans each, laser only and noisy odometry, seed 1) completes, prints the
 # table and writes JSON with the expected fields and counts; the same runs with --jobs 2 give the
 # same scores. Then a simulated log (--logs sim, simulation seed 1, 60 s: the robot turns 60 deg
-# in place before it drives) scored against its true poses, laser only and with noisy odometry.
+# in place before it drives) scored against its true poses, laser only and with noisy odometry,
+# and the same in the fr079 world at 1.5 m/s with an 8 m laser (--sim-speed, --sim-max-range).
 # Last, CSAIL whole and every 4th scan, laser only, seed 1: the every-4th run gets the floor of
 # its derived score (the whole run's poses at its scans), overall and per gap, the whole run none.
 #
@@ -123,8 +124,57 @@ for r in runs:
 if errors:
     print("FAIL:\n  " + "\n  ".join(errors))
     sys.exit(1)
+# What the logs held: the robot's steps (at most 1 m and 60 deg a scan by default) and the
+# laser's farthest return (CSAIL's world has rooms deeper than 8 m).
+for log in json.load(open(sys.argv[1]))["logs"]:
+    step, far = log.get("reference_step"), log.get("farthest_return_m", 0)
+    if step is None or not 0.5 < step["max_m"] <= 1.0 + 1e-6 or not step["max_deg"] <= 60 + 1e-6:
+        errors.append(f'{log["log"]}: reference steps {step}, expected up to 1 m and 60 deg')
+    if log["log"] == "sim-1" and not 8 < far <= 30:
+        errors.append(f'sim-1: farthest return {far} m, expected over 8 m (30 m laser)')
+if errors:
+    print("FAIL:\n  " + "\n  ".join(errors))
+    sys.exit(1)
 print("generalise --logs sim,sim-fr079: 4 runs within 0.10 m of the simulation's truth")
 PY
+
+# Harder conditions by flag: 1.5 m/s and an 8 m laser in the fr079 world reach the log (steps
+# over 1 m, no return beyond 8 m) and the JSON; a value out of range is a usage error naming
+# its flag.
+"$bin/esfleet-bench" generalise --data-dir "$data" --logs sim-fr079 --sim-seeds 1 \
+  --sim-duration 60 --sim-speed 1.5 --sim-max-range 8 --modes laser --seeds 1 \
+  --out "$work/hard.json" >"$work/hard.md" 2>"$work/hard.err" || {
+  cat "$work/hard.err"
+  echo "FAIL: esfleet-bench generalise --sim-speed 1.5 --sim-max-range 8 exited with an error"
+  exit 1
+}
+python3 - "$work/hard.json" <<'PY'
+import json, sys
+
+doc = json.load(open(sys.argv[1]))
+log, run, errors = doc["logs"][0], doc["runs"][0], []
+step, far = log["reference_step"], log["farthest_return_m"]
+if not 1.0 < step["max_m"] <= 1.5 + 1e-6:
+    errors.append(f"reference steps {step}, expected some over 1 m and none over 1.5 m")
+if not 0 < far <= 8:
+    errors.append(f"farthest return {far} m, expected at most 8 m")
+sim = doc["sim"]
+if sim["speed"] != 1.5 or sim["max_range"] != 8 or sim["clearance"] != "per world":
+    errors.append(f"JSON sim block {sim}")
+# 0.073 m when written (in the CSAIL world an 8 m laser sees no corridor's end: 2.16 m).
+if not run["derived"]["trans_mean"] < 0.10:
+    errors.append(f'derived {run["derived"]["trans_mean"]} m against the truth, expected < 0.10')
+if errors:
+    print("FAIL:\n  " + "\n  ".join(errors))
+    sys.exit(1)
+print(f'generalise sim-fr079-1 at 1.5 m/s with an 8 m laser: steps up to {step["max_m"]:.2f} m, '
+      f'{run["derived"]["trans_mean"]:.3f} m')
+PY
+rc=0
+"$bin/esfleet-bench" generalise --data-dir "$data" --logs sim --sim-speed 9 \
+  --out "$work/bad.json" >/dev/null 2>"$work/bad.err" || rc=$?
+[ "$rc" -eq 2 ] && grep -q -- '--sim-speed must be in (0, 5]' "$work/bad.err" ||
+  { cat "$work/bad.err"; echo "FAIL: --sim-speed 9: exit code $rc, expected 2 naming it"; exit 1; }
 
 # The fr079 world, simulation seed 4, SLAM seed 2, laser only: after a turn in place the robot
 # drives down the corridor at 1 m per scan; the tracking settled 0.7 m behind and the run broke
