@@ -19,13 +19,6 @@
 
 namespace esfleet::bench {
 
-/// The simulated robot's motion unless --sim-speed and --sim-turn-rate say otherwise.
-inline sim::MotionConfig default_sim_motion() {
-  sim::MotionConfig m;
-  m.speed = 1.0;
-  return m;
-}
-
 struct GeneraliseOptions {
   std::string data_dir = "data";  ///< holds mit-csail/ and fr079/ as in the repository
   std::vector<std::string> logs = {"csail-keys", "csail", "fr079"};
@@ -34,14 +27,15 @@ struct GeneraliseOptions {
   std::vector<std::size_t> ks;
   std::vector<std::string> modes = {"laser", "odom"};
   std::string seeds = "1-5";
-  /// The simulated logs (--logs sim): one per simulation seed, each duration_s of a robot at up
-  /// to 1 m/s scanning once a second in the MIT CSAIL world, scored against its true poses.
+  /// The simulated logs (--logs sim, sim-fr079): one per simulation seed, each duration_s of a
+  /// robot scanning once a second in the MIT CSAIL or the Freiburg 079 world, scored against its
+  /// true poses.
   std::string sim_seeds = "1-4";
   double sim_duration_s = 400.0;
   /// The simulated robot's motion and laser (--sim-speed etc.: harder conditions than the
   /// default 1 m/s, 60 deg/s, 30 m, 1 cm noise). Its clearance is the world's unless
   /// sim_clearance >= 0.
-  sim::MotionConfig sim_motion = default_sim_motion();
+  sim::MotionConfig sim_motion{.speed = 1.0};
   sim::LaserConfig sim_laser;
   double sim_clearance = -1.0;
   std::size_t max_scans = 0;  ///< at most this many scans per run, after subsampling (0 = all)
