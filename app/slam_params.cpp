@@ -193,6 +193,10 @@ void add_slam_params(ParamTable& t, SlamConfig* s, CarmenReaderOptions* r) {
   t.add_switch("recovery_fair_recent_pace", &s->recovery.fair_recent_pace,
                "laser only: ... or of the longest of the last 5 steps, if longer (after a turn "
                "in place the robot drives off at its pace while the prediction stands still)");
+  t.add_switch("recovery_through_jump", &s->recovery.through_jump,
+               "laser only, after a recovery jump: also search around constant velocity through "
+               "the jump (the jump may have been the robot's own motion) when it lies outside the "
+               "window, keeping the more consistent result");
   t.add_double("recovery_clear_gain", &s->recovery.clear_gain,
                "a recovered pose at least this much more consistent than the tracked one "
                "replaces it however far the jump (0 = no cap)");

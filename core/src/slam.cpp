@@ -200,6 +200,7 @@ SlamStep Slam::process_scan(const LaserScan& scan) {
       const TimedPose& b = trajectory_[trajectory_.size() - 2];
       motion.previous = TimedPose{motion.last.stamp - (b.stamp - a.stamp),
                                   motion.last.pose.compose(a.pose.relative_to(b.pose))};
+      motion.before_jump = b;
     }
     motion.odometry = last_odometry_;
     const bool short_view = short_view_hold() && scan.odometry && last_odometry_;
@@ -316,11 +317,26 @@ void Slam::recover(const LaserScan& scan, const ScanPoints& points, const Motion
   // Its own draws, from the seed and the scan's index: the tracking's stream stays the same
   // whether or not the search ran, and a resumed run draws the same.
   Rng rng(config_.seed * 0x9E3779B97F4A7C15ULL + trajectory_.size());
-  const RecoveryResult r = recover_pose(scaled, config_.tracking, es_, rng, map_, points, centre);
+  RecoveryResult r = recover_pose(scaled, config_.tracking, es_, rng, map_, points, centre);
+  float recovered = consistency(map_, points, r.result.pose, rc.tolerance).score();
+  if (!measured && rc.through_jump && motion.before_jump) {
+    // The last pose was a jump and the prediction took it as a correction; if it was the
+    // robot's own motion, constant velocity through it is where the robot is.
+    const Pose2 through = constant_velocity(*motion.before_jump, motion.last, scan.stamp);
+    if (std::abs(through.x - centre.x) > scaled.window_xy ||
+        std::abs(through.y - centre.y) > scaled.window_xy) {
+      RecoveryResult other = recover_pose(scaled, config_.tracking, es_, rng, map_, points,
+                                          Pose2{through.x, through.y, centre.theta});
+      const float c = consistency(map_, points, other.result.pose, rc.tolerance).score();
+      if (c > recovered) {
+        r = std::move(other);
+        recovered = c;
+      }
+    }
+  }
   // The farther the jump from the tracked pose (relative to the window), the clearer its gain
   // in consistency must be.
-  const float gain = consistency(map_, points, r.result.pose, rc.tolerance).score() -
-                     consistency(map_, points, step.pose, rc.tolerance).score();
+  const float gain = recovered - consistency(map_, points, step.pose, rc.tolerance).score();
   const Pose2 jump = r.result.pose.relative_to(step.pose);
   const double jump_xy = std::hypot(jump.x, jump.y);
   const double d =

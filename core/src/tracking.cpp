@@ -126,6 +126,18 @@ ScanPoints prepare_scan(const LaserScan& scan, const TrackingConfig& config) {
   return prepare_scan(scan, config.min_range, config.max_range);
 }
 
+double velocity_scale(const TimedPose& a, const TimedPose& b, double stamp) {
+  const double dt_prev = b.stamp - a.stamp;
+  const double dt = stamp - b.stamp;
+  return std::clamp((dt_prev > 1e-6 && dt > 0.0) ? dt / dt_prev : 1.0, 0.0, 3.0);
+}
+
+Pose2 constant_velocity(const TimedPose& a, const TimedPose& b, double stamp) {
+  const Pose2 delta = b.pose.relative_to(a.pose);
+  const double k = velocity_scale(a, b, stamp);
+  return b.pose.compose({delta.x * k, delta.y * k, delta.theta * k});
+}
+
 Pose2 predict_pose(const TrackingConfig& config, const MotionState& motion, const LaserScan& scan,
                    std::vector<Pose2>* alternatives) {
   const Pose2& prev = motion.last.pose;
@@ -134,19 +146,14 @@ Pose2 predict_pose(const TrackingConfig& config, const MotionState& motion, cons
     odom = prev.compose(scan.odometry->relative_to(*motion.odometry));
   }
   if (motion.previous) {
-    const TimedPose& a = *motion.previous;
-    const TimedPose& b = motion.last;
-    const Pose2 delta = b.pose.relative_to(a.pose);
-    const double dt_prev = b.stamp - a.stamp;
-    const double dt = scan.stamp - b.stamp;
-    // Scale the last motion by the time ratio; fall back to one step when stamps are odd.
-    double k = (dt_prev > 1e-6 && dt > 0.0) ? dt / dt_prev : 1.0;
-    k = std::clamp(k, 0.0, 3.0);
-    velocity = prev.compose({delta.x * k, delta.y * k, delta.theta * k});
+    // The last motion scaled by the time ratio (one step when stamps are odd).
+    velocity = constant_velocity(*motion.previous, motion.last, scan.stamp);
     // Log stamps can jitter while the robot moves a steady distance per scan (fr079: the time
     // ratio is off by more than 1.5x for 43 % of scans, the motion ratio stays near 1), so the
     // unscaled last step is a hypothesis of its own when the two differ.
-    if (std::abs(k - 1.0) > 0.2) step = prev.compose(delta);
+    if (std::abs(velocity_scale(*motion.previous, motion.last, scan.stamp) - 1.0) > 0.2) {
+      step = prev.compose(motion.last.pose.relative_to(motion.previous->pose));
+    }
   }
   Pose2 centre = prev;
   if (odom) {

@@ -176,6 +176,32 @@ rc=0
 [ "$rc" -eq 2 ] && grep -q -- '--sim-speed must be in (0, 5]' "$work/bad.err" ||
   { cat "$work/bad.err"; echo "FAIL: --sim-speed 9: exit code $rc, expected 2 naming it"; exit 1; }
 
+# fr079 every 10th scan with a 1 deg laser, SLAM seed 5, laser only: the robot reverses at scan
+# 138; the recovery jump there was that reversal, the prediction at 139 drove on forwards 2 m
+# from the truth, outside the recovery window, and the run broke until the search also looked
+# through the jump (recovery_through_jump).
+"$bin/esfleet-bench" generalise --data-dir "$data" --logs fr079 --ks 10 --beam-step 2 \
+  --max-scans 160 --seeds 5 --modes laser --out "$work/reverse.json" >"$work/reverse.md" \
+  2>"$work/reverse.err" || {
+  cat "$work/reverse.err"
+  echo "FAIL: esfleet-bench generalise --logs fr079 --ks 10 exited with an error"
+  exit 1
+}
+python3 - "$work/reverse.json" <<'PY'
+import json, sys
+
+runs = json.load(open(sys.argv[1]))["runs"]
+if len(runs) != 1 or runs[0]["log"] != "fr079" or runs[0]["k"] != 10 or runs[0]["scans"] != 160:
+    print(f"FAIL: expected one 160-scan run of fr079 k=10, got {[(r['log'], r['k'], r['scans']) for r in runs]}")
+    sys.exit(1)
+mean = runs[0]["derived"]["trans_mean"]
+# 0.088 m when written; 0.750 m with --recovery-through-jump off.
+if not mean < 0.20:
+    print(f"FAIL: fr079 k=10 1 deg laser only seed 5: derived {mean:.3f} m, expected < 0.20")
+    sys.exit(1)
+print(f"generalise fr079 k=10 1 deg laser only seed 5, 160 scans: {mean:.3f} m (< 0.20)")
+PY
+
 # The fr079 world, simulation seed 4, SLAM seed 2, laser only: after a turn in place the robot
 # drives down the corridor at 1 m per scan; the tracking settled 0.7 m behind and the run broke
 # (0.489 m) until a fair jump was measured against the recent pace (recovery_fair_recent_pace).

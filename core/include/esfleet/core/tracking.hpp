@@ -91,7 +91,18 @@ struct MotionState {
   TimedPose last;                     ///< the last estimate
   std::optional<TimedPose> previous;  ///< the one before it, if any
   std::optional<Pose2> odometry;      ///< odometry reading of the last scan, if any
+  /// Slam: when `last` is a recovery jump, `previous` continues the step before it (the jump
+  /// taken as a correction of the estimate), and this is the estimate before the jump as it
+  /// was tracked (the jump may instead have been the robot's own motion).
+  std::optional<TimedPose> before_jump;
 };
+
+/// The share of the step from `a` to `b` that constant velocity predicts for a scan at `stamp`:
+/// the time ratio (stamp - b) / (b - a), clamped to [0, 3]; 1 when the stamps give none.
+double velocity_scale(const TimedPose& a, const TimedPose& b, double stamp);
+
+/// `b` moved on by the step from `a` to `b` times velocity_scale(a, b, stamp).
+Pose2 constant_velocity(const TimedPose& a, const TimedPose& b, double stamp);
 
 /// The pose the search is centred on (odometry increment when switched on and present, else
 /// constant velocity or the previous pose, per config.prediction); `alternatives` (optional)
