@@ -193,9 +193,10 @@ SlamStep Slam::process_scan(const LaserScan& scan) {
     motion.last = trajectory_.back();
     if (trajectory_.size() >= 2) motion.previous = trajectory_[trajectory_.size() - 2];
     if (last_jumped_ && trajectory_.size() >= 3) {
-      // The last pose was a recovery jump: a correction of the estimate, not a motion. The
-      // prediction continues the step before it (as the trajectory has it now, after any loop
-      // closure since).
+      // The last pose was a recovery jump, taken as a correction of the estimate, not a
+      // motion: the prediction continues the step before it (as the trajectory has it now,
+      // after any loop closure since). If it was the robot's own motion, the recovery search
+      // finds it through the jump (RecoveryConfig::through_jump).
       const TimedPose& a = trajectory_[trajectory_.size() - 3];
       const TimedPose& b = trajectory_[trajectory_.size() - 2];
       motion.previous = TimedPose{motion.last.stamp - (b.stamp - a.stamp),
