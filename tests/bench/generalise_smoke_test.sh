@@ -15,14 +15,22 @@ data=$2
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 
-run() {  # run JOBS NAME
-  "$bin/esfleet-bench" generalise --data-dir "$data" --logs csail-keys,csail --ks 3 \
-    --modes laser,odom --seeds 1 --max-scans 60 --jobs "$1" --out "$work/$2.json" \
-    >"$work/$2.md" 2>"$work/$2.err" || {
-    cat "$work/$2.err"
-    echo "FAIL: esfleet-bench generalise --jobs $1 exited with an error"
+# generalise NAME ARGS...: esfleet-bench generalise on the bundled data with ARGS, writing
+# $work/NAME.json, NAME.md (the tables) and NAME.err; an error exit fails the test, printing them.
+generalise() {
+  local name=$1
+  shift
+  "$bin/esfleet-bench" generalise --data-dir "$data" "$@" --out "$work/$name.json" \
+    >"$work/$name.md" 2>"$work/$name.err" || {
+    cat "$work/$name.err"
+    echo "FAIL: esfleet-bench generalise $* exited with an error"
     exit 1
   }
+}
+
+run() {  # run JOBS NAME
+  generalise "$2" --logs csail-keys,csail --ks 3 --modes laser,odom --seeds 1 --max-scans 60 \
+    --jobs "$1"
 }
 run 1 one
 run 2 two
@@ -91,13 +99,7 @@ if errors:
 print("generalise JSON: 4 runs, counts and fields as expected, --jobs 1 and 2 agree")
 PY
 
-"$bin/esfleet-bench" generalise --data-dir "$data" --logs sim,sim-fr079 --sim-seeds 1 \
-  --sim-duration 60 --modes laser,odom --seeds 1 --out "$work/sim.json" >"$work/sim.md" \
-  2>"$work/sim.err" || {
-  cat "$work/sim.err"
-  echo "FAIL: esfleet-bench generalise --logs sim,sim-fr079 exited with an error"
-  exit 1
-}
+generalise sim --logs sim,sim-fr079 --sim-seeds 1 --sim-duration 60 --modes laser,odom --seeds 1
 cat "$work/sim.md"
 grep -q '^| sim-1 | 1 | 60 |' "$work/sim.md" || { echo "FAIL: no sim-1 row"; exit 1; }
 grep -q '^| sim-fr079-1 | 1 | 60 |' "$work/sim.md" || { echo "FAIL: no sim-fr079-1 row"; exit 1; }
@@ -141,13 +143,8 @@ PY
 # Harder conditions by flag: 1.5 m/s and an 8 m laser in the fr079 world reach the log (steps
 # over 1 m, no return beyond 8 m) and the JSON; a value out of range is a usage error naming
 # its flag.
-"$bin/esfleet-bench" generalise --data-dir "$data" --logs sim-fr079 --sim-seeds 1 \
-  --sim-duration 60 --sim-speed 1.5 --sim-max-range 8 --modes laser --seeds 1 \
-  --out "$work/hard.json" >"$work/hard.md" 2>"$work/hard.err" || {
-  cat "$work/hard.err"
-  echo "FAIL: esfleet-bench generalise --sim-speed 1.5 --sim-max-range 8 exited with an error"
-  exit 1
-}
+generalise hard --logs sim-fr079 --sim-seeds 1 --sim-duration 60 --sim-speed 1.5 \
+  --sim-max-range 8 --modes laser --seeds 1
 python3 - "$work/hard.json" <<'PY'
 import json, sys
 
@@ -180,13 +177,7 @@ rc=0
 # 138; the recovery jump there was that reversal, the prediction at 139 drove on forwards 2 m
 # from the truth, outside the recovery window, and the run broke until the search also looked
 # through the jump (recovery_through_jump).
-"$bin/esfleet-bench" generalise --data-dir "$data" --logs fr079 --ks 10 --beam-step 2 \
-  --max-scans 160 --seeds 5 --modes laser --out "$work/reverse.json" >"$work/reverse.md" \
-  2>"$work/reverse.err" || {
-  cat "$work/reverse.err"
-  echo "FAIL: esfleet-bench generalise --logs fr079 --ks 10 exited with an error"
-  exit 1
-}
+generalise reverse --logs fr079 --ks 10 --beam-step 2 --max-scans 160 --seeds 5 --modes laser
 python3 - "$work/reverse.json" <<'PY'
 import json, sys
 
@@ -205,12 +196,7 @@ PY
 # The fr079 world, simulation seed 4, SLAM seed 2, laser only: after a turn in place the robot
 # drives down the corridor at 1 m per scan; the tracking settled 0.7 m behind and the run broke
 # (0.489 m) until a fair jump was measured against the recent pace (recovery_fair_recent_pace).
-"$bin/esfleet-bench" generalise --data-dir "$data" --logs sim-fr079 --sim-seeds 4 --seeds 2 \
-  --modes laser --out "$work/pace.json" >"$work/pace.md" 2>"$work/pace.err" || {
-  cat "$work/pace.err"
-  echo "FAIL: esfleet-bench generalise --logs sim-fr079 --sim-seeds 4 exited with an error"
-  exit 1
-}
+generalise pace --logs sim-fr079 --sim-seeds 4 --seeds 2 --modes laser
 python3 - "$work/pace.json" <<'PY'
 import json, sys
 
@@ -226,12 +212,7 @@ if not mean < 0.10:
 print(f"generalise sim-fr079-4 laser only seed 2: {mean:.3f} m (< 0.10)")
 PY
 
-"$bin/esfleet-bench" generalise --data-dir "$data" --logs csail --ks 1,4 --modes laser --seeds 1 \
-  --jobs 2 --out "$work/floor.json" >"$work/floor.md" 2>"$work/floor.err" || {
-  cat "$work/floor.err"
-  echo "FAIL: esfleet-bench generalise --logs csail --ks 1,4 exited with an error"
-  exit 1
-}
+generalise floor --logs csail --ks 1,4 --modes laser --seeds 1 --jobs 2
 cat "$work/floor.md"
 grep -q '^| csail | 4 | 497 | [0-9.]* (floor [0-9.]*) |' "$work/floor.md" ||
   { echo "FAIL: no floor in the csail k=4 row"; exit 1; }
