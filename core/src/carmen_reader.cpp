@@ -26,6 +26,9 @@ constexpr std::size_t kTimeFields = 3;  // ipc_timestamp host logger_timestamp
 constexpr double kMaxStartAngle = 2.0 * std::numbers::pi;
 constexpr double kMinResolution = 1e-6;
 constexpr double kMaxResolution = 1.0;
+// FLASER beams are spread over 180°, so fewer than 4 are more than 1 rad apart
+// (kMaxResolution): 3 beams are pi/2 apart, a scan the message refuses.
+constexpr long long kMinFlaserBeams = 4;
 
 // A CARMEN message name: a letter, then letters, digits, '_' or '-'.
 bool is_message_name(std::string_view s) {
@@ -241,7 +244,7 @@ struct CarmenReader::Impl {
   LaserScan parse_flaser() {
     constexpr std::string_view kType = "FLASER";
     if (tokens.size() < 2) fail("FLASER line ends before its beam count");
-    const auto n = static_cast<std::size_t>(count(kType, "beam count", 1, 2));
+    const auto n = static_cast<std::size_t>(count(kType, "beam count", 1, kMinFlaserBeams));
     const std::size_t expected = 2 + n + 6 + kTimeFields;
     if (tokens.size() != expected) {
       fail("FLASER declares " + std::to_string(n) + " beams, so " + std::to_string(expected - 2) +

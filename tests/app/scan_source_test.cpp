@@ -25,7 +25,7 @@ TEST(ReadLog, ALogWithRoundedStampsReadsWhole) {
   {
     std::ofstream out(path);
     for (int i = 0; i < 3; ++i) {
-      out << "FLASER 3 1.0 1.5 2.0 " << 0.1 * i << " 0 0 " << 0.1 * i
+      out << "FLASER 4 1.0 1.5 2.0 2.5 " << 0.1 * i << " 0 0 " << 0.1 * i
           << " 0 0 1.13486e+09 host 1.13486e+09\n";
     }
   }

@@ -11,24 +11,24 @@ bin="$1"
 work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
 
-# Five scans of three beams, 0.2 s apart; the raw log's own odometry is anything.
+# Five scans of four beams, 0.2 s apart; the raw log's own odometry is anything.
 stamps=(1134864629.1 1134864629.3 1134864629.5 1134864629.7 1134864629.9)
 xs=(0 1 2 3 4)
 for i in 0 1 2 3 4; do
   echo "${stamps[$i]} ${xs[$i]} 0 0"                                   # estimate: along x
 done > "$work/traj.txt"
 for i in 0 1 2 3 4; do
-  r="1.$i 2.$i 3.$i"
-  echo "FLASER 3 $r 9 9 0 9 9 0 ${stamps[$i]} host ${stamps[$i]}" >> "$work/raw.log"
+  r="1.$i 2.$i 3.$i 4.$i"
+  echo "FLASER 4 $r 9 9 0 9 9 0 ${stamps[$i]} host ${stamps[$i]}" >> "$work/raw.log"
   # corrected: the same path turned 90 degrees and moved to (10, 5)
-  echo "FLASER 3 $r 10 $((5 + i)) 1.5708 10 $((5 + i)) 1.5708 ${stamps[$i]} host ${stamps[$i]}" \
+  echo "FLASER 4 $r 10 $((5 + i)) 1.5708 10 $((5 + i)) 1.5708 ${stamps[$i]} host ${stamps[$i]}" \
       >> "$work/corrected.log"
 done
 # A key-scan log of scans 0, 2 and 4, its stamps printed to 6 significant digits; scan 4's
 # corrected pose 0.5 m farther on.
-echo "FLASER 3 1.0 2.0 3.0 10 5 1.5708 10 5 1.5708 1.13486e+09 host 1.13486e+09" > "$work/keys.log"
-echo "FLASER 3 1.2 2.2 3.2 10 7 1.5708 10 7 1.5708 1.13486e+09 host 1.13486e+09" >> "$work/keys.log"
-echo "FLASER 3 1.4 2.4 3.4 10 9.5 1.5708 10 9.5 1.5708 1.13486e+09 host 1.13486e+09" >> "$work/keys.log"
+echo "FLASER 4 1.0 2.0 3.0 4.0 10 5 1.5708 10 5 1.5708 1.13486e+09 host 1.13486e+09" > "$work/keys.log"
+echo "FLASER 4 1.2 2.2 3.2 4.2 10 7 1.5708 10 7 1.5708 1.13486e+09 host 1.13486e+09" >> "$work/keys.log"
+echo "FLASER 4 1.4 2.4 3.4 4.4 10 9.5 1.5708 10 9.5 1.5708 1.13486e+09 host 1.13486e+09" >> "$work/keys.log"
 
 "$bin/esfleet-eval" --trajectory "$work/traj.txt" --reference "$work/corrected.log" --json \
     > "$work/out1.txt"

@@ -28,13 +28,13 @@ std::string flaser(const std::vector<float>& ranges, const Pose2& p, const std::
 }
 
 /// The raw log of the tests: 8 scans, stamps 1134863807.0 + 0.2 i, odometry (0.5 i, 0, 0),
-/// ranges (1 + i, 2, 3) so every scan differs.
+/// ranges (1 + i, 2, 3, 4) so every scan differs.
 std::vector<LaserScan> raw_log() {
   std::string text;
   for (int i = 0; i < 8; ++i) {
     char stamp[32];
     std::snprintf(stamp, sizeof stamp, "%.6f", 1134863807.0 + 0.2 * i);
-    text += flaser({1.0f + static_cast<float>(i), 2.0f, 3.0f}, {0.5 * i, 0.0, 0.0}, stamp);
+    text += flaser({1.0f + static_cast<float>(i), 2.0f, 3.0f, 4.0f}, {0.5 * i, 0.0, 0.0}, stamp);
   }
   return read_carmen_text(text, "raw.log");
 }
@@ -43,7 +43,7 @@ std::vector<LaserScan> raw_log() {
 std::vector<LaserScan> key_log(const std::vector<int>& which, const std::string& stamp) {
   std::string text;
   for (int i : which) {
-    text += flaser({1.0f + static_cast<float>(i), 2.0f, 3.0f}, {1.0 * i, 1.0, 0.1}, stamp);
+    text += flaser({1.0f + static_cast<float>(i), 2.0f, 3.0f, 4.0f}, {1.0 * i, 1.0, 0.1}, stamp);
   }
   return read_carmen_text(text, "keys.log");
 }

@@ -206,6 +206,18 @@ TEST(CarmenReader, ParsesCorrectedFr079ExcerptWithParamsOdomAndNeff) {
   EXPECT_EQ(count_no_returns(*first) + count_no_returns(*second) + count_no_returns(*third), 3u);
 }
 
+TEST(CarmenReader, TheFewestFlaserBeamsAreFourAtMostOneRadianApart) {
+  // 4 beams over 180°: pi/4 apart (at most 1 rad, as the scan message requires), 5 beams too.
+  const auto four = read_carmen_text("FLASER 4 1 2 3 4 0 0 0 0 0 0 1 h 1\n", "four.log");
+  ASSERT_EQ(four.size(), 1u);
+  EXPECT_FLOAT_EQ(four.front().angle_min, static_cast<float>(-kPi / 2));
+  EXPECT_FLOAT_EQ(four.front().angle_increment, static_cast<float>(kPi / 4));
+  const auto five = read_carmen_text("FLASER 5 1 2 3 4 5 0 0 0 0 0 0 1 h 1\n", "five.log");
+  ASSERT_EQ(five.size(), 1u);
+  EXPECT_FLOAT_EQ(five.front().angle_increment, static_cast<float>(kPi / 4));
+  EXPECT_NEAR(five.front().angle(4), kPi / 2, 1e-6);
+}
+
 TEST(CarmenReader, EvenBeamCountFollowsTheCenteredConvention) {
   CarmenReaderOptions options;
   options.even_beams = EvenBeamConvention::kCentered;
@@ -373,7 +385,7 @@ TEST(CarmenReaderErrors, ExtraTrailingField) {
 }
 
 TEST(CarmenReaderErrors, BeamCountOutOfRangeOrNotAnInteger) {
-  expect_bad_line("FLASER 0 1 2 3 4 5 6 1 h 1", "beam count (field 1) is 0, outside [2, 10000]");
+  expect_bad_line("FLASER 0 1 2 3 4 5 6 1 h 1", "beam count (field 1) is 0, outside [4, 10000]");
   expect_bad_line("FLASER -3 1 2 3", "is -3, outside");
   expect_bad_line("FLASER 10001 1 2 3", "is 10001, outside");
   expect_bad_line("FLASER 361.0 1 2 3", "beam count (field 1) is not an integer: \"361.0\"");
@@ -548,8 +560,8 @@ TEST(CarmenReaderFromText, GivesTheSameScansAsTheFile) {
 }
 
 TEST(CarmenReaderFromText, ErrorsNameTheGivenNameAndLine) {
-  expect_log_error([] { read_carmen_text("# c\nFLASER 2 1 1\n", "mem.log"); }, "mem.log", 2,
-                   "FLASER declares 2 beams");
+  expect_log_error([] { read_carmen_text("# c\nFLASER 4 1 1\n", "mem.log"); }, "mem.log", 2,
+                   "FLASER declares 4 beams");
   expect_log_error([] { read_carmen_text("", "mem.log"); }, "mem.log", 0, "no laser scans");
   // A last line without '\n' is read; one longer than 1 MiB is an error, as from a file.
   EXPECT_EQ(read_carmen_text(lines_of(fixture("mit-csail-excerpt.clf")).at(0)).size(), 1u);
@@ -590,6 +602,20 @@ TEST(CarmenReaderFuzzRegressions, RobotLaser1AnglesMustFitTheScan) {
   expect_log_error(
       [&] { read_carmen_text(read_bytes(corpus + "regress-robotlaser1-tiny-resolution"), "f"); },
       "f", 1, "angular_resolution (field 4) is outside");
+}
+
+// fuzz_carmen, regress-flaser-three-beams: a FLASER of 3 (or 2) beams spread over 180° has beams
+// pi/2 apart, a scan that scan_from_msg refuses (more than 1 rad), so esfleet-replay could not
+// send it. The fewest FLASER beams are 4 (TheFewestFlaserBeamsAreFourAtMostOneRadianApart).
+TEST(CarmenReaderFuzzRegressions, FlaserBeamsMustBeAtMostOneRadianApart) {
+  expect_log_error([] { read_carmen_text("FLASER 3 1 2 3 0 0 0 0 0 0 1 h 1", "f.log"); }, "f.log",
+                   1, "FLASER beam count (field 1) is 3, outside [4, 10000]");
+  expect_log_error([] { read_carmen_text("FLASER 2 1 2 0 0 0 0 0 0 1 h 1", "f.log"); }, "f.log", 1,
+                   "FLASER beam count (field 1) is 2, outside [4, 10000]");
+  const std::string corpus = std::string(ESFLEET_PROJECT_DIR) + "/fuzz/corpus/fuzz_carmen/";
+  expect_log_error(
+      [&] { read_carmen_text(read_bytes(corpus + "regress-flaser-three-beams"), "f"); }, "f", 1,
+      "beam count (field 1) is 3, outside");
 }
 
 }  // namespace

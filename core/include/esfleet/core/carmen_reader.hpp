@@ -22,9 +22,10 @@
 // Validation: each known line must have exactly its format's field count; every numeric field
 // must parse completely (no trailing characters) and be finite (remissions, which are not used,
 // need only be numbers); ranges must be >= 0; a beam count must lie in [1, 10000] (FLASER: in
-// [2, 10000], since one beam cannot span the field of view); a ROBOTLASER1 start_angle must lie
-// in [-2pi, 2pi] and its angular_resolution in 1e-6 .. 1 rad in magnitude (so the scan's float
-// angles are finite and non-zero, and the scan fits the scan message). Readings at or above the
+// [4, 10000], since its beams span 180° and fewer than 4 are more than 1 rad apart, more than
+// the scan message accepts); a ROBOTLASER1 start_angle must lie in [-2pi, 2pi] and its
+// angular_resolution in 1e-6 .. 1 rad in magnitude (so the scan's float angles are finite and
+// non-zero, and the scan fits the scan message). Readings at or above the
 // no-return range (81.91 in the logs) are valid and kept unchanged; LaserScan::is_no_return finds
 // them. Messages name the bad field and its position, counting the first token after the message
 // name as field 1, e.g. "log.clf:12: FLASER range[17] (field 19) is NaN".
