@@ -87,18 +87,6 @@ float GridMap::score(CellIndex c) const {
 
 float GridMap::value(CellIndex c) const { return std::max(score(c), 0.0f); }
 
-void GridMap::refresh_score(Tile& t, std::size_t i) {
-  const std::uint64_t h = t.hit[i], e = t.err[i];
-  if (h + e == 0) {
-    t.score[i] = kUnknownScore;
-    return;
-  }
-  auto s = static_cast<float>(static_cast<double>(h) / static_cast<double>(h + e));
-  // Keep "score < 1 exactly when err > 0" even where the float ratio rounds up to 1.
-  if (e > 0 && s >= 1.0f) s = std::nextafter(1.0f, 0.0f);
-  t.score[i] = s;
-}
-
 void GridMap::grow_directory(TileKey k) {
   std::int32_t x0 = k.tx, y0 = k.ty, x1 = k.tx, y1 = k.ty;
   if (dir_w_ > 0) {
@@ -214,36 +202,6 @@ Tile* GridMap::tile_for_write(CellIndex c) {
   box_ty1_ = std::max(box_ty1_, k.ty);
   return raw;
 }
-
-bool GridMap::modify(CellIndex c, bool hit_counter, bool increment) {
-  const TileKey k = tile_of(c);
-  Tile* t = last_.tile;
-  if (t == nullptr || !(k == last_.key)) {
-    t = tile_for_write(c);
-    if (t == nullptr) return false;
-    last_.key = k;
-    last_.tile = t;
-  }
-  const auto i = static_cast<std::size_t>(((c.y & mask_) << shift_) | (c.x & mask_));
-  std::uint32_t& v = hit_counter ? t->hit[i] : t->err[i];
-  // Saturate at both ends: counters never wrap.
-  if (increment) {
-    if (v != std::numeric_limits<std::uint32_t>::max()) ++v;
-  } else if (v != 0) {
-    --v;
-  }
-  refresh_score(*t, i);
-  if (!t->touched) {
-    t->touched = true;
-    touched_.push_back(t);
-  }
-  return true;
-}
-
-bool GridMap::add_hit(CellIndex c) { return modify(c, true, true); }
-bool GridMap::add_err(CellIndex c) { return modify(c, false, true); }
-bool GridMap::remove_hit(CellIndex c) { return modify(c, true, false); }
-bool GridMap::remove_err(CellIndex c) { return modify(c, false, false); }
 
 std::size_t GridMap::commit_update() {
   const std::size_t n = touched_.size();

@@ -43,19 +43,21 @@ MapPoints map_points(const LaserScan& scan, float min_range, float max_range,
 
 namespace {
 
+/// Counts into the map (or out of it, kRemove), one cell at a time; chosen at compile time, as
+/// it runs for every cell a beam crosses.
+template <bool kRemove>
 struct Counter {
   GridMap& map;
   MapUpdateStats& stats;
-  bool remove;
   void err(CellIndex c) {
-    if (remove ? map.remove_err(c) : map.add_err(c)) {
+    if (kRemove ? map.remove_err(c) : map.add_err(c)) {
       ++stats.errs;
     } else {
       ++stats.out_of_range;
     }
   }
   void hit(CellIndex c) {
-    if (remove ? map.remove_hit(c) : map.add_hit(c)) {
+    if (kRemove ? map.remove_hit(c) : map.add_hit(c)) {
       ++stats.hits;
     } else {
       ++stats.out_of_range;
@@ -63,12 +65,11 @@ struct Counter {
   }
 };
 
-}  // namespace
-
-MapUpdateStats update_map(GridMap& map, const ScanPoints& points, const Pose2& pose,
-                          const MapUpdateConfig& config, bool remove, bool commit) {
+template <bool kRemove>
+MapUpdateStats update_cells(GridMap& map, const ScanPoints& points, const Pose2& pose,
+                            const MapUpdateConfig& config) {
   MapUpdateStats stats;
-  Counter counter{map, stats, remove};
+  Counter<kRemove> counter{map, stats};
   const double inv = 1.0 / map.cell_size();
   const double c = std::cos(pose.theta), s = std::sin(pose.theta);
   const double sx = pose.x * inv, sy = pose.y * inv;
@@ -115,6 +116,15 @@ MapUpdateStats update_map(GridMap& map, const ScanPoints& points, const Pose2& p
       traverse(sx, sy, ex, ey, [&](CellIndex cell) { counter.err(cell); });
     }
   }
+  return stats;
+}
+
+}  // namespace
+
+MapUpdateStats update_map(GridMap& map, const ScanPoints& points, const Pose2& pose,
+                          const MapUpdateConfig& config, bool remove, bool commit) {
+  const MapUpdateStats stats = remove ? update_cells<true>(map, points, pose, config)
+                                      : update_cells<false>(map, points, pose, config);
   if (commit) map.commit_update();
   return stats;
 }

@@ -15,8 +15,10 @@
 // commit_update() bumps the version of every touched tile once and adds it to the dirty set
 // that the leader drains with take_dirty() to publish changed tiles.
 
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <span>
 #include <unordered_map>
@@ -111,12 +113,14 @@ class GridMap {
 
   /// Map-update primitives: saturating increments; the tile is created on first touch.
   /// Return false (and change nothing) when the cell lies outside the allowed tile range.
-  bool add_hit(CellIndex c);
-  bool add_err(CellIndex c);
+  /// Inline: the map update calls them once per cell a beam crosses (tens of thousands per
+  /// scan), and a call and its conversions cost more than the update itself.
+  bool add_hit(CellIndex c) { return modify<true, true>(c); }
+  bool add_err(CellIndex c) { return modify<false, true>(c); }
   /// The inverse primitives (saturating at 0), used to take a scan back out of the map when
   /// loop closure moves it.
-  bool remove_hit(CellIndex c);
-  bool remove_err(CellIndex c);
+  bool remove_hit(CellIndex c) { return modify<true, false>(c); }
+  bool remove_err(CellIndex c) { return modify<false, false>(c); }
 
   /// Ends one map update: bumps each touched tile's version once and marks it dirty.
   /// Returns how many tiles changed.
@@ -195,7 +199,8 @@ class GridMap {
 
  private:
   Tile* tile_for_write(CellIndex c);
-  bool modify(CellIndex c, bool hit_counter, bool increment);
+  template <bool kHitCounter, bool kIncrement>
+  bool modify(CellIndex c);
   void grow_directory(TileKey k);
   static void refresh_score(Tile& t, std::size_t i);
   void rebuild_coarse(Tile& t) const;
@@ -233,5 +238,46 @@ class GridMap {
   // Bounding box of the tiles, inclusive (meaningful when tiles_ is not empty).
   std::int32_t box_tx0_ = 0, box_ty0_ = 0, box_tx1_ = 0, box_ty1_ = 0;
 };
+
+inline void GridMap::refresh_score(Tile& t, std::size_t i) {
+  const std::uint32_t h = t.hit[i], e = t.err[i];
+  // Signed 64-bit: converts to double in one instruction (unsigned 64-bit takes several), and
+  // exactly, as every count here is below 2^33.
+  const std::int64_t total = std::int64_t{h} + std::int64_t{e};
+  if (total == 0) {
+    t.score[i] = kUnknownScore;
+    return;
+  }
+  auto s = static_cast<float>(static_cast<double>(std::int64_t{h}) / static_cast<double>(total));
+  // Keep "score < 1 exactly when err > 0" even where the float ratio rounds up to 1.
+  if (e > 0 && s >= 1.0f) s = std::nextafter(1.0f, 0.0f);
+  t.score[i] = s;
+}
+
+template <bool kHitCounter, bool kIncrement>
+bool GridMap::modify(CellIndex c) {
+  const TileKey k = tile_of(c);
+  Tile* t = last_.tile;
+  if (t == nullptr || !(k == last_.key)) [[unlikely]] {
+    t = tile_for_write(c);
+    if (t == nullptr) return false;
+    last_.key = k;
+    last_.tile = t;
+  }
+  const auto i = static_cast<std::size_t>(((c.y & mask_) << shift_) | (c.x & mask_));
+  std::uint32_t& v = kHitCounter ? t->hit[i] : t->err[i];
+  // Saturate at both ends: counters never wrap.
+  if constexpr (kIncrement) {
+    if (v != std::numeric_limits<std::uint32_t>::max()) ++v;
+  } else if (v != 0) {
+    --v;
+  }
+  refresh_score(*t, i);
+  if (!t->touched) {
+    t->touched = true;
+    touched_.push_back(t);
+  }
+  return true;
+}
 
 }  // namespace esfleet
