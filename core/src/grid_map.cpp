@@ -182,6 +182,7 @@ Tile* GridMap::tile_for_write(CellIndex c) {
   tile->hit.assign(n, 0);
   tile->err.assign(n, 0);
   tile->score.assign(n, kUnknownScore);
+  tile->stale.assign((n + 63) / 64, 0);
   for (int level = 1; level <= config_.pyramid_levels; ++level) {
     tile->coarse.emplace_back(n >> (2 * level), kUnknownScore);
   }
@@ -207,6 +208,11 @@ std::size_t GridMap::commit_update() {
   const std::size_t n = touched_.size();
   for (Tile* t : touched_) {
     t->touched = false;
+    for (std::size_t w = 0; w < t->stale.size(); ++w) {
+      for (std::uint64_t bits = std::exchange(t->stale[w], 0); bits != 0; bits &= bits - 1) {
+        refresh_score(*t, 64 * w + static_cast<std::size_t>(std::countr_zero(bits)));
+      }
+    }
     rebuild_coarse(*t);
     ++t->version;
     if (!t->dirty) {

@@ -50,14 +50,14 @@ struct Counter {
   GridMap& map;
   MapUpdateStats& stats;
   void err(CellIndex c) {
-    if (kRemove ? map.remove_err(c) : map.add_err(c)) {
+    if (kRemove ? map.remove_err_deferred(c) : map.add_err_deferred(c)) {
       ++stats.errs;
     } else {
       ++stats.out_of_range;
     }
   }
   void hit(CellIndex c) {
-    if (kRemove ? map.remove_hit(c) : map.add_hit(c)) {
+    if (kRemove ? map.remove_hit_deferred(c) : map.add_hit_deferred(c)) {
       ++stats.hits;
     } else {
       ++stats.out_of_range;

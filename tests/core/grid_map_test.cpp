@@ -86,6 +86,49 @@ TEST(GridMapTest, VersionBumpsOncePerCommitAndDirtySetDrains) {
   EXPECT_EQ(map.take_dirty().size(), 2u);
 }
 
+TEST(GridMapTest, DeferredWritesScoreAtCommitAsImmediateOnes) {
+  // The same writes, immediate on one map and deferred on the other, with pyramid levels: the
+  // deferred map keeps its old scores until commit_update(), then every score and coarse cell
+  // is what the immediate map holds. Cells are written many times, removed and added again.
+  const GridMapConfig config{.cell_size = 0.05, .tile_edge = 8, .pyramid_levels = 2};
+  GridMap now(config), later(config);
+  now.add_hit({40, 40});
+  later.add_hit({40, 40});
+  now.commit_update();
+  later.commit_update();
+  const auto write = [](GridMap& map, bool deferred, int i) {
+    const CellIndex a{i % 13 - 6, (i * 7) % 11 - 5}, b{(i * 5) % 17 - 8, i % 9 - 4};
+    if (deferred) {
+      map.add_err_deferred(a);
+      map.add_hit_deferred(b);
+      if (i % 3 == 0) map.remove_err_deferred(a);
+      if (i % 4 == 0) map.remove_hit_deferred({40, 40});
+    } else {
+      map.add_err(a);
+      map.add_hit(b);
+      if (i % 3 == 0) map.remove_err(a);
+      if (i % 4 == 0) map.remove_hit({40, 40});
+    }
+  };
+  for (int i = 0; i < 200; ++i) {
+    write(now, false, i);
+    write(later, true, i);
+  }
+  EXPECT_EQ(later.score({40, 40}), 1.0f);  // not refreshed yet: the hit there was removed
+  EXPECT_EQ(later.hit({40, 40}), 0u);
+  EXPECT_EQ(now.score({40, 40}), kUnknownScore);
+  EXPECT_EQ(now.commit_update(), later.commit_update());
+  ASSERT_EQ(now.tile_keys(), later.tile_keys());
+  for (int level = 0; level <= 2; ++level) {
+    const GridMap::Lookup a = now.lookup(level), b = later.lookup(level);
+    for (int y = -20; y < 50; ++y) {
+      for (int x = -20; x < 50; ++x) {
+        ASSERT_EQ(a.score(x, y), b.score(x, y)) << "level " << level << " cell " << x << "," << y;
+      }
+    }
+  }
+}
+
 TEST(GridMapTest, CountersSaturateInsteadOfWrapping) {
   GridMap map(GridMapConfig{.cell_size = 0.05, .tile_edge = 8});
   const std::size_t n = map.cells_per_tile();

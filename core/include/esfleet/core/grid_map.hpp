@@ -80,6 +80,9 @@ struct Tile {
   std::vector<float> score;  ///< derived from hit/err, see kUnknownScore
   /// coarse[k - 1]: level-k scores, (edge >> k)^2 cells, max over the 2^k x 2^k cells covered.
   std::vector<std::vector<float>> coarse;
+  /// One bit per cell whose counters a deferred write changed and whose score commit_update()
+  /// has not refreshed yet (GridMap::add_err_deferred).
+  std::vector<std::uint64_t> stale;
   bool touched = false;  ///< changed since the last commit_update()
   bool dirty = false;    ///< in the dirty set (changed since the last take_dirty())
 };
@@ -121,9 +124,17 @@ class GridMap {
   /// loop closure moves it.
   bool remove_hit(CellIndex c) { return modify<true, false>(c); }
   bool remove_err(CellIndex c) { return modify<false, false>(c); }
+  /// The same four, but the cell's score is refreshed by the next commit_update(), once
+  /// however often the cell was counted; until then score() and the look-ups read its score
+  /// before. For the map update (update_map): many beams of a scan cross the cells near the
+  /// robot, and a loop closure moves hundreds of overlapping scans in one update.
+  bool add_hit_deferred(CellIndex c) { return modify<true, true, true>(c); }
+  bool add_err_deferred(CellIndex c) { return modify<false, true, true>(c); }
+  bool remove_hit_deferred(CellIndex c) { return modify<true, false, true>(c); }
+  bool remove_err_deferred(CellIndex c) { return modify<false, false, true>(c); }
 
-  /// Ends one map update: bumps each touched tile's version once and marks it dirty.
-  /// Returns how many tiles changed.
+  /// Ends one map update: refreshes the scores of the cells deferred writes changed, bumps
+  /// each touched tile's version once and marks it dirty. Returns how many tiles changed.
   std::size_t commit_update();
   /// Keys of tiles changed since the previous call (sorted); clears the dirty set.
   std::vector<TileKey> take_dirty();
@@ -199,7 +210,7 @@ class GridMap {
 
  private:
   Tile* tile_for_write(CellIndex c);
-  template <bool kHitCounter, bool kIncrement>
+  template <bool kHitCounter, bool kIncrement, bool kDeferred = false>
   bool modify(CellIndex c);
   void grow_directory(TileKey k);
   static void refresh_score(Tile& t, std::size_t i);
@@ -254,7 +265,7 @@ inline void GridMap::refresh_score(Tile& t, std::size_t i) {
   t.score[i] = s;
 }
 
-template <bool kHitCounter, bool kIncrement>
+template <bool kHitCounter, bool kIncrement, bool kDeferred>
 bool GridMap::modify(CellIndex c) {
   const TileKey k = tile_of(c);
   Tile* t = last_.tile;
@@ -272,7 +283,11 @@ bool GridMap::modify(CellIndex c) {
   } else if (v != 0) {
     --v;
   }
-  refresh_score(*t, i);
+  if constexpr (kDeferred) {
+    t->stale[i >> 6] |= std::uint64_t{1} << (i & 63);
+  } else {
+    refresh_score(*t, i);
+  }
   if (!t->touched) {
     t->touched = true;
     touched_.push_back(t);
