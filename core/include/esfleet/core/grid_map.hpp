@@ -11,7 +11,8 @@
 // flags of Eq. (fitness). A dense directory of tile pointers over the tiles' bounding box makes
 // a cell look-up a few shifts and two loads (GridMap::Lookup).
 //
-// Versioning: a map update (one scan insertion) touches cells through add_hit/add_err, then
+// Versioning: a map update (one scan insertion) touches cells through add_hit/add_err (or
+// their _deferred forms, whose scores commit_update() refreshes, once per cell), then
 // commit_update() bumps the version of every touched tile once and adds it to the dirty set
 // that the leader drains with take_dirty() to publish changed tiles.
 
@@ -116,8 +117,8 @@ class GridMap {
 
   /// Map-update primitives: saturating increments; the tile is created on first touch.
   /// Return false (and change nothing) when the cell lies outside the allowed tile range.
-  /// Inline: the map update calls them once per cell a beam crosses (tens of thousands per
-  /// scan), and a call and its conversions cost more than the update itself.
+  /// Inline, as the map update writes once per cell a beam crosses (tens of thousands of
+  /// cells per scan).
   bool add_hit(CellIndex c) { return modify<true, true>(c); }
   bool add_err(CellIndex c) { return modify<false, true>(c); }
   /// The inverse primitives (saturating at 0), used to take a scan back out of the map when
