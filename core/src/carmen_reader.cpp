@@ -304,8 +304,13 @@ struct CarmenReader::Impl {
                  "is outside 1e-6 .. 1 rad in magnitude: " + quote(tokens[4]));
     }
     const double maximum_range = number(kType, "maximum_range", 5);
-    if (!(maximum_range > 0.0)) {
-      fail_field(kType, "maximum_range", 5, "is not positive: " + quote(tokens[5]));
+    // Tested as the float the scan carries: 1e-320 is positive, but 0 as a float, a scan
+    // scan_from_msg refuses.
+    if (!(static_cast<float>(maximum_range) > 0.0f)) {
+      fail_field(
+          kType, "maximum_range", 5,
+          (maximum_range > 0.0 ? "is not positive as a 32-bit float: " : "is not positive: ") +
+              quote(tokens[5]));
     }
     number(kType, "accuracy", 6);
     number(kType, "remission_mode", 7);

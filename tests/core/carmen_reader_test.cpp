@@ -618,5 +618,29 @@ TEST(CarmenReaderFuzzRegressions, FlaserBeamsMustBeAtMostOneRadianApart) {
       "beam count (field 1) is 3, outside");
 }
 
+// fuzz_carmen, regress-robotlaser1-subnormal-max-range: a maximum_range of 1e-320 is a positive
+// double but 0 as the float a scan carries, a scan scan_from_msg refuses (max_range must be > 0).
+TEST(CarmenReaderFuzzRegressions, RobotLaser1MaximumRangeMustBePositiveAsAFloat) {
+  const auto line = [](const std::string& maximum_range) {
+    return "ROBOTLASER1 0 -1.5707963 3.1415927 0.7853982 " + maximum_range +
+           " 0.01 0 5 1.0 2.5 0.0 60.0 49.99 2 0.5 0.25 0.1 0.0 0.0 1.0 2.0 0.5 0.3 0.1 0.5 0.2 "
+           "0.0 123.456 host 123.457";
+  };
+  const std::vector<LaserScan> ok = read_carmen_text(line("1e-30"));
+  ASSERT_EQ(ok.size(), 1u);
+  EXPECT_EQ(ok[0].max_range, 1e-30f);
+  expect_log_error([&] { read_carmen_text(line("1e-320"), "f.log"); }, "f.log", 1,
+                   "ROBOTLASER1 maximum_range (field 5) is not positive as a 32-bit float: "
+                   "\"1e-320\"");
+  expect_log_error([&] { read_carmen_text(line("-0"), "f.log"); }, "f.log", 1,
+                   "ROBOTLASER1 maximum_range (field 5) is not positive: \"-0\"");
+  const std::string corpus = std::string(ESFLEET_PROJECT_DIR) + "/fuzz/corpus/fuzz_carmen/";
+  expect_log_error(
+      [&] {
+        read_carmen_text(read_bytes(corpus + "regress-robotlaser1-subnormal-max-range"), "f");
+      },
+      "f", 1, "maximum_range (field 5) is not positive as a 32-bit float");
+}
+
 }  // namespace
 }  // namespace esfleet
