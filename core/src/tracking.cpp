@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <optional>
 #include <stdexcept>
 
@@ -17,17 +18,18 @@ bool use_prior(const TrackingConfig& c) {
   return c.prior_sigma_xy > 0.0 && c.prior_sigma_theta_deg > 0.0;
 }
 
-/// A multi-modal motion prior: the best of the Gaussians around each hypothesis.
+/// A multi-modal motion prior: the best of the Gaussians around each hypothesis, i.e. the
+/// Gaussian of the nearest one (one exp per call; a NaN distance counts as no hypothesis).
 float prior(const TrackingConfig& c, const Pose2& p, const std::vector<Pose2>& hypotheses) {
   const double sxy = c.prior_sigma_xy;
   const double sth = deg_to_rad(c.prior_sigma_theta_deg);
-  double best = 0.0;
+  double nearest = std::numeric_limits<double>::infinity();
   for (const Pose2& h : hypotheses) {
     const double dx = (p.x - h.x) / sxy, dy = (p.y - h.y) / sxy;
     const double dt = normalize_angle(p.theta - h.theta) / sth;
-    best = std::max(best, std::exp(-0.5 * (dx * dx + dy * dy + dt * dt)));
+    nearest = std::min(nearest, dx * dx + dy * dy + dt * dt);
   }
-  return static_cast<float>(best);
+  return static_cast<float>(std::exp(-0.5 * nearest));
 }
 
 EsResult search(const TrackingConfig& c, const EvolutionStrategy& es, Rng& rng, const GridMap& map,

@@ -9,6 +9,9 @@ namespace esfleet {
 
 /// Wraps an angle to (-pi, pi].
 inline double normalize_angle(double a) {
+  // Most angles are in range already, and remainder() returns those unchanged (a quotient
+  // |a| / 2 pi <= 1/2 rounds to 0, the tie at pi to the even 0): skip the library call.
+  if (a > -std::numbers::pi && a <= std::numbers::pi) return a;
   a = std::remainder(a, 2.0 * std::numbers::pi);
   return a <= -std::numbers::pi ? a + 2.0 * std::numbers::pi : a;
 }
