@@ -56,6 +56,22 @@ struct Counter {
       ++stats.out_of_range;
     }
   }
+  /// err() for every cell traverse() visits from (x0, y0) to (x1, y1), carrying the tile from
+  /// a cell to its neighbour (GridMap::ErrPath).
+  void errs_along(double x0, double y0, double x1, double y1) {
+    GridMap::ErrPath<!kRemove> path(map, {static_cast<std::int32_t>(std::floor(x0)),
+                                          static_cast<std::int32_t>(std::floor(y0))});
+    std::size_t written = 0, visited = 0;
+    traverse_steps(
+        x0, y0, x1, y1,
+        [&] {
+          written += path.write();
+          ++visited;
+        },
+        [&](std::int32_t mx, std::int32_t my) { path.move(mx, my); });
+    stats.errs += written;
+    stats.out_of_range += visited - written;
+  }
   void hit(CellIndex c) {
     if (kRemove ? map.remove_hit_deferred(c) : map.add_hit_deferred(c)) {
       ++stats.hits;
@@ -88,7 +104,7 @@ MapUpdateStats update_cells(GridMap& map, const ScanPoints& points, const Pose2&
       const CellIndex stop{static_cast<std::int32_t>(std::floor(stop_x)),
                            static_cast<std::int32_t>(std::floor(stop_y))};
       if (config.exact_traversal) {
-        traverse(sx, sy, stop_x, stop_y, [&](CellIndex cell) { counter.err(cell); });
+        counter.errs_along(sx, sy, stop_x, stop_y);
         if (stop != end) counter.err(stop);
       } else {
         // The paper's sampling: L = ceil(alpha_res * d) points along the beam, the last one the
@@ -113,7 +129,7 @@ MapUpdateStats update_cells(GridMap& map, const ScanPoints& points, const Pose2&
     for (const float a : points.no_return_angles) {
       const double ex = sx + r * std::cos(pose.theta + a);
       const double ey = sy + r * std::sin(pose.theta + a);
-      traverse(sx, sy, ex, ey, [&](CellIndex cell) { counter.err(cell); });
+      counter.errs_along(sx, sy, ex, ey);
     }
   }
   return stats;

@@ -129,6 +129,51 @@ TEST(GridMapTest, DeferredWritesScoreAtCommitAsImmediateOnes) {
   }
 }
 
+TEST(GridMapTest, ErrPathWritesAsDeferredWritesCellByCell) {
+  // A seeded random walk over neighbouring cells, across tile borders in every direction and
+  // out of the allowed tile range (|tile coordinate| <= 2): ErrPath on one map,
+  // add_err_deferred / remove_err_deferred of each cell on the other. Same results, counters,
+  // scores, tiles and touched tiles.
+  const GridMapConfig config{
+      .cell_size = 0.05, .tile_edge = 8, .max_tile_coord = 2, .pyramid_levels = 1};
+  GridMap by_path(config), by_cell(config);
+  std::uint64_t state = 12345;  // a fixed LCG: the walk is the same on every run
+  const auto next = [&state] {
+    state = state * 6364136223846793005ULL + 1442695040888963407ULL;
+    return static_cast<std::uint32_t>(state >> 33);
+  };
+  CellIndex cell{3, -5};
+  std::size_t refused = 0;
+  for (int path = 0; path < 40; ++path) {
+    const bool add = path % 4 != 3;
+    GridMap::ErrPath<true> adds(by_path, cell);
+    GridMap::ErrPath<false> removes(by_path, cell);
+    for (int step = 0; step < 60; ++step) {
+      const bool written = add ? adds.write() : removes.write();
+      const bool expected =
+          add ? by_cell.add_err_deferred(cell) : by_cell.remove_err_deferred(cell);
+      ASSERT_EQ(written, expected) << "path " << path << " step " << step;
+      refused += !written;
+      const std::uint32_t r = next() % 4;
+      const std::int32_t mx = r == 0 ? 1 : r == 1 ? -1 : 0, my = r == 2 ? 1 : r == 3 ? -1 : 0;
+      adds.move(mx, my);
+      removes.move(mx, my);
+      cell.x += mx;
+      cell.y += my;
+    }
+    ASSERT_EQ(by_path.commit_update(), by_cell.commit_update()) << "path " << path;
+  }
+  EXPECT_GT(refused, 0u);  // the walk left the allowed range
+  ASSERT_EQ(by_path.tile_keys(), by_cell.tile_keys());
+  EXPECT_GE(by_path.tile_count(), 9u);  // and crossed many tiles
+  for (int y = -30; y < 30; ++y) {
+    for (int x = -30; x < 30; ++x) {
+      ASSERT_EQ(by_path.err({x, y}), by_cell.err({x, y})) << x << "," << y;
+      ASSERT_EQ(by_path.score({x, y}), by_cell.score({x, y})) << x << "," << y;
+    }
+  }
+}
+
 TEST(GridMapTest, CountersSaturateInsteadOfWrapping) {
   GridMap map(GridMapConfig{.cell_size = 0.05, .tile_edge = 8});
   const std::size_t n = map.cells_per_tile();

@@ -2,11 +2,14 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numbers>
 #include <stdexcept>
+#include <vector>
 
+#include "esfleet/core/grid_traversal.hpp"
 #include "esfleet/core/scan_points.hpp"
 #include "esfleet/core/slam.hpp"
 
@@ -66,6 +69,106 @@ TEST(MapUpdateTest, DiagonalBeamVisitsEachCrossedCellOnce) {
     for (int x = -1; x < 5; ++x) total_err += map.err({x, y});
   EXPECT_EQ(total_err, 5u);
   EXPECT_EQ(map.err({0, 0}), 1u);
+}
+
+/// True when the closed unit square of cell c and the segment a-b share a point, to within
+/// `slack` (cell units): the segment clipped to the square's slab in x overlaps its slab in y.
+bool segment_touches_cell(double ax, double ay, double bx, double by, CellIndex c, double slack) {
+  double t0 = 0.0, t1 = 1.0;
+  const auto clip = [&](double a, double d, double lo, double hi) {
+    if (d == 0.0) return a >= lo && a <= hi;
+    double u = (lo - a) / d, v = (hi - a) / d;
+    if (u > v) std::swap(u, v);
+    t0 = std::max(t0, u);
+    t1 = std::min(t1, v);
+    return t0 <= t1;
+  };
+  return clip(ax, bx - ax, c.x - slack, c.x + 1 + slack) &&
+         clip(ay, by - ay, c.y - slack, c.y + 1 + slack);
+}
+
+TEST(MapUpdateTest, TraversalIsAFourConnectedPathOfCellsTheBeamCrosses) {
+  // Seeded random segments in every direction, many crossing tile borders: traverse() visits
+  // |dx| + |dy| cells from the start cell, each a 4-neighbour of the one before and of the end
+  // cell after the last, each one the segment passes through.
+  std::uint64_t state = 99;
+  const auto uniform = [&state](double lo, double hi) {
+    state = state * 6364136223846793005ULL + 1442695040888963407ULL;
+    return lo + (hi - lo) * static_cast<double>(state >> 11) * 0x1p-53;
+  };
+  for (int k = 0; k < 2000; ++k) {
+    const double ax = uniform(-40, 40), ay = uniform(-40, 40);
+    const double bx = ax + uniform(-30, 30), by = ay + uniform(-30, 30);
+    const CellIndex start{static_cast<std::int32_t>(std::floor(ax)),
+                          static_cast<std::int32_t>(std::floor(ay))};
+    const CellIndex end{static_cast<std::int32_t>(std::floor(bx)),
+                        static_cast<std::int32_t>(std::floor(by))};
+    std::vector<CellIndex> cells;
+    traverse(ax, ay, bx, by, [&](CellIndex c) { cells.push_back(c); });
+    ASSERT_EQ(cells.size(),
+              static_cast<std::size_t>(std::abs(end.x - start.x) + std::abs(end.y - start.y)))
+        << "segment " << k;
+    if (cells.empty()) continue;
+    ASSERT_EQ(cells.front(), start) << "segment " << k;
+    cells.push_back(end);
+    for (std::size_t i = 0; i + 1 < cells.size(); ++i) {
+      ASSERT_EQ(std::abs(cells[i + 1].x - cells[i].x) + std::abs(cells[i + 1].y - cells[i].y), 1)
+          << "segment " << k << " cell " << i;
+      ASSERT_TRUE(segment_touches_cell(ax, ay, bx, by, cells[i], 1e-9))
+          << "segment " << k << " cell " << i;
+    }
+  }
+}
+
+TEST(MapUpdateTest, BeamsAcrossTilesCountAsTheTraversalsCells) {
+  // A scan of long beams in every direction on 8-cell tiles, inserted and partly removed again:
+  // update_map's counters are those of writing each cell traverse() visits, one at a time.
+  const GridMapConfig config{.cell_size = 0.05, .tile_edge = 8};
+  const MapUpdateConfig update;  // free margin 0.15 m, exact traversal
+  GridMap map(config), reference(config);
+  std::vector<float> ranges;
+  for (int i = 0; i < 720; ++i) ranges.push_back(1.0f + 0.37f * static_cast<float>(i % 11));
+  const ScanPoints points = prepare_scan(scan_of(ranges, -3.1f, 0.0086f));
+  const Pose2 first{0.123, -0.456, 0.3}, second{-0.61, 0.27, -1.2};
+  const auto write_reference = [&](const Pose2& pose, bool remove) {
+    const double c = std::cos(pose.theta), s = std::sin(pose.theta);
+    const double sx = pose.x / config.cell_size, sy = pose.y / config.cell_size;
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      const double ex = sx + (c * points.x[i] - s * points.y[i]) / config.cell_size;
+      const double ey = sy + (s * points.x[i] + c * points.y[i]) / config.cell_size;
+      const double f = (points.range[i] - update.free_margin) / points.range[i];
+      const double stop_x = sx + f * (ex - sx), stop_y = sy + f * (ey - sy);
+      const CellIndex end{static_cast<std::int32_t>(std::floor(ex)),
+                          static_cast<std::int32_t>(std::floor(ey))};
+      const CellIndex stop{static_cast<std::int32_t>(std::floor(stop_x)),
+                           static_cast<std::int32_t>(std::floor(stop_y))};
+      const auto err = [&](CellIndex cell) {
+        remove ? reference.remove_err(cell) : reference.add_err(cell);
+      };
+      traverse(sx, sy, stop_x, stop_y, err);
+      if (stop != end) err(stop);
+      remove ? reference.remove_hit(end) : reference.add_hit(end);
+    }
+    reference.commit_update();
+  };
+  const MapUpdateStats a = update_map(map, points, first, update);
+  const MapUpdateStats b = update_map(map, points, second, update);
+  update_map(map, points, first, update, /*remove=*/true);
+  write_reference(first, false);
+  write_reference(second, false);
+  write_reference(first, true);
+  EXPECT_GT(a.errs, 20000u);
+  EXPECT_GT(b.errs, 20000u);
+  EXPECT_EQ(a.out_of_range + b.out_of_range, 0u);
+  ASSERT_EQ(map.tile_keys(), reference.tile_keys());
+  EXPECT_GT(map.tile_count(), 100u);
+  for (int y = -120; y < 120; ++y) {
+    for (int x = -120; x < 120; ++x) {
+      ASSERT_EQ(map.err({x, y}), reference.err({x, y})) << x << "," << y;
+      ASSERT_EQ(map.hit({x, y}), reference.hit({x, y})) << x << "," << y;
+      ASSERT_EQ(map.score({x, y}), reference.score({x, y})) << x << "," << y;
+    }
+  }
 }
 
 TEST(MapUpdateTest, BeamsSharingCellsAddOncePerBeam) {

@@ -134,6 +134,29 @@ class GridMap {
   bool remove_hit_deferred(CellIndex c) { return modify<true, false, true>(c); }
   bool remove_err_deferred(CellIndex c) { return modify<false, false, true>(c); }
 
+  /// Deferred err writes along a path of neighbouring cells (a beam, traverse_steps): the tile
+  /// and the cell's index in it carry over from one cell to the next, so the directory is
+  /// looked up only where the path enters another tile. write() is add_err_deferred (or
+  /// remove_err_deferred, !kIncrement) of the current cell. No other write to the map may come
+  /// between two of its writes.
+  template <bool kIncrement>
+  class ErrPath {
+   public:
+    ErrPath(GridMap& map, CellIndex start) : map_(map), cell_(start) { enter(); }
+    /// False (and nothing changed) when the cell lies outside the allowed tile range.
+    bool write();
+    /// To the neighbour (x + mx, y + my), |mx| + |my| == 1.
+    void move(std::int32_t mx, std::int32_t my);
+
+   private:
+    void enter();  ///< in-tile coordinates of cell_; its tile is looked up at the first write
+    GridMap& map_;
+    CellIndex cell_;
+    Tile* tile_ = nullptr;
+    bool looked_up_ = false;
+    std::int32_t lx_ = 0, ly_ = 0, index_ = 0;
+  };
+
   /// Ends one map update: refreshes the scores of the cells deferred writes changed, bumps
   /// each touched tile's version once and marks it dirty. Returns how many tiles changed.
   std::size_t commit_update();
@@ -213,6 +236,15 @@ class GridMap {
   Tile* tile_for_write(CellIndex c);
   template <bool kHitCounter, bool kIncrement, bool kDeferred = false>
   bool modify(CellIndex c);
+  /// modify()'s write to cell i of a tile it found: the counter, then the score or stale bit.
+  template <bool kHitCounter, bool kIncrement, bool kDeferred>
+  static void count(Tile& t, std::size_t i);
+  void mark_touched(Tile& t) {
+    if (!t.touched) {
+      t.touched = true;
+      touched_.push_back(&t);
+    }
+  }
   void grow_directory(TileKey k);
   static void refresh_score(Tile& t, std::size_t i);
   void rebuild_coarse(Tile& t) const;
@@ -267,6 +299,22 @@ inline void GridMap::refresh_score(Tile& t, std::size_t i) {
 }
 
 template <bool kHitCounter, bool kIncrement, bool kDeferred>
+void GridMap::count(Tile& t, std::size_t i) {
+  std::uint32_t& v = kHitCounter ? t.hit[i] : t.err[i];
+  // Saturate at both ends: counters never wrap.
+  if constexpr (kIncrement) {
+    if (v != std::numeric_limits<std::uint32_t>::max()) ++v;
+  } else if (v != 0) {
+    --v;
+  }
+  if constexpr (kDeferred) {
+    t.stale[i >> 6] |= std::uint64_t{1} << (i & 63);
+  } else {
+    refresh_score(t, i);
+  }
+}
+
+template <bool kHitCounter, bool kIncrement, bool kDeferred>
 bool GridMap::modify(CellIndex c) {
   const TileKey k = tile_of(c);
   Tile* t = last_.tile;
@@ -276,24 +324,46 @@ bool GridMap::modify(CellIndex c) {
     last_.key = k;
     last_.tile = t;
   }
-  const auto i = static_cast<std::size_t>(((c.y & mask_) << shift_) | (c.x & mask_));
-  std::uint32_t& v = kHitCounter ? t->hit[i] : t->err[i];
-  // Saturate at both ends: counters never wrap.
-  if constexpr (kIncrement) {
-    if (v != std::numeric_limits<std::uint32_t>::max()) ++v;
-  } else if (v != 0) {
-    --v;
-  }
-  if constexpr (kDeferred) {
-    t->stale[i >> 6] |= std::uint64_t{1} << (i & 63);
-  } else {
-    refresh_score(*t, i);
-  }
-  if (!t->touched) {
-    t->touched = true;
-    touched_.push_back(t);
-  }
+  count<kHitCounter, kIncrement, kDeferred>(
+      *t, static_cast<std::size_t>(((c.y & mask_) << shift_) | (c.x & mask_)));
+  mark_touched(*t);
   return true;
+}
+
+template <bool kIncrement>
+void GridMap::ErrPath<kIncrement>::enter() {
+  lx_ = cell_.x & map_.mask_;
+  ly_ = cell_.y & map_.mask_;
+  index_ = (ly_ << map_.shift_) | lx_;
+  looked_up_ = false;
+}
+
+template <bool kIncrement>
+bool GridMap::ErrPath<kIncrement>::write() {
+  if (!looked_up_) [[unlikely]] {
+    tile_ = map_.tile_for_write(cell_);
+    looked_up_ = true;
+    // Touched now: the write below is the tile's first on this path, and no commit comes
+    // between the writes of a path.
+    if (tile_ != nullptr) map_.mark_touched(*tile_);
+  }
+  if (tile_ == nullptr) return false;
+  count<false, kIncrement, true>(*tile_, static_cast<std::size_t>(index_));
+  return true;
+}
+
+template <bool kIncrement>
+void GridMap::ErrPath<kIncrement>::move(std::int32_t mx, std::int32_t my) {
+  cell_.x += mx;
+  cell_.y += my;
+  lx_ += mx;
+  ly_ += my;
+  // Off the tile's edge on either side (a negative coordinate is a large unsigned one).
+  if (static_cast<std::uint32_t>(lx_ | ly_) > static_cast<std::uint32_t>(map_.mask_)) [[unlikely]] {
+    enter();
+    return;
+  }
+  index_ += mx + my * (std::int32_t{1} << map_.shift_);
 }
 
 }  // namespace esfleet
