@@ -210,6 +210,11 @@ LaserScan scan_from_msg(const msg::LaserScanMsg& m) {
       std::abs(m.angle_min()) > 7.0f || std::abs(m.angle_increment()) > 1.0f) {
     fail("angle_min / angle_increment out of range");
   }
+  // Every beam in one direction is no laser (the CARMEN reader, the ROS 2 scan and the
+  // contributed scan refuse it too); a single beam needs no increment.
+  if (m.angle_increment() == 0.0f && m.ranges().size() > 1) {
+    fail("angle_increment is zero for " + std::to_string(m.ranges().size()) + " beams");
+  }
   if (!(m.max_range() > 0.0f) || !std::isfinite(m.max_range())) fail("max_range must be > 0");
   LaserScan s;
   s.stamp = m.stamp();

@@ -307,6 +307,17 @@ TEST(MsgConvert, ScanRoundTripAndValidation) {
   m = scan_to_msg("r1", 3, s);
   m.ranges().resize(20000, 1.0f);
   EXPECT_THROW(scan_from_msg(m), std::invalid_argument);
+  // Every beam in one direction: refused, naming the field; one beam needs no increment.
+  m = scan_to_msg("r1", 3, s);
+  m.angle_increment(0.0f);
+  try {
+    scan_from_msg(m);
+    ADD_FAILURE() << "accepted 3 beams with a zero angle_increment";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_STREQ(e.what(), "laser scan message: angle_increment is zero for 3 beams");
+  }
+  m.ranges().resize(1);
+  EXPECT_EQ(scan_from_msg(m).ranges.size(), 1u);
 }
 
 TEST(MsgConvert, TruthRoundTripAndValidation) {
