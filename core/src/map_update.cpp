@@ -24,6 +24,11 @@ void MapUpdateConfig::validate() const {
     throw std::invalid_argument("update.alpha_res must be > 0, got " + std::to_string(alpha_res));
   }
   require_non_negative(no_return_clear_range, "no_return_clear_range");
+  if (no_return_clear_range > kMaxBeamRange) {
+    throw std::invalid_argument("update.no_return_clear_range must be at most " +
+                                std::to_string(static_cast<int>(kMaxBeamRange)) + " m, got " +
+                                std::to_string(no_return_clear_range));
+  }
   require_non_negative(free_margin, "free_margin");
   require_non_negative(beam_fill_deg, "beam_fill");
   require_non_negative(beam_fill_max_gap, "beam_fill_max_gap");

@@ -31,7 +31,8 @@ ScanPoints prepare_scan(const LaserScan& scan, float min_range, float max_range,
     p.y.push_back(r * std::sin(a));
     p.range.push_back(r);
   };
-  const float limit = max_range > 0.0f ? std::min(max_range, scan.max_range) : scan.max_range;
+  const float no_return = std::min(scan.max_range, kMaxBeamRange);
+  const float limit = max_range > 0.0f ? std::min(max_range, no_return) : no_return;
   bool previous_valid = false;  // beam i - 1 gave an end point
   for (std::size_t i = 0; i < n; ++i) {
     const bool was_valid = previous_valid;
@@ -39,7 +40,7 @@ ScanPoints prepare_scan(const LaserScan& scan, float min_range, float max_range,
     const float r = scan.ranges[i];
     if (!std::isfinite(r) || r < 0.0f) continue;
     const float a = scan.angle(i);
-    if (r >= scan.max_range) {
+    if (r >= no_return) {
       p.no_return_angles.push_back(a);
       continue;
     }

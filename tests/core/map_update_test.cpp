@@ -320,6 +320,30 @@ TEST(MapUpdateTest, CommitBumpsVersionOfTouchedTiles) {
   EXPECT_EQ(map.take_dirty().size(), 2u);
 }
 
+TEST(MapUpdateTest, AScanDeclaringAHugeMaximumWalksAtMostAKilometrePerBeam) {
+  // A reading of 10 000 km under a declared max_range of 3.4e38 m used to be an end point: its
+  // beam walked 2e8 cells (all outside the allowed tiles) in one map update. It is a no-return
+  // now, and the scan's other beams are written as before.
+  GridMap map = unit_map();
+  LaserScan s = scan_of({1e7f, 3.0f, 3e38f}, 0.0f, 0.5f);
+  s.max_range = 3.4e38f;
+  const ScanPoints points = prepare_scan(s);
+  ASSERT_EQ(points.size(), 1u);
+  const MapUpdateStats stats = update_map(map, points, Pose2{0.5, 0.5, 0.0});
+  GridMap alone = unit_map();  // the 3 m beam by itself
+  const MapUpdateStats expected =
+      update_map(alone, prepare_scan(scan_of({3.0f}, 0.5f, 0.0f)), Pose2{0.5, 0.5, 0.0});
+  EXPECT_EQ(stats.errs, expected.errs);
+  EXPECT_EQ(stats.out_of_range, 0u);
+  EXPECT_EQ(stats.hits, 1u);
+  EXPECT_EQ(map.tile_keys(), alone.tile_keys());
+  MapUpdateConfig far;
+  far.no_return_clear_range = 1000.5;
+  EXPECT_THROW(far.validate(), std::invalid_argument);
+  far.no_return_clear_range = 1000.0;
+  EXPECT_NO_THROW(far.validate());
+}
+
 TEST(MapUpdateTest, PrepareScanDropsShortAndOverLimitBeams) {
   const LaserScan s = scan_of({0.05f, 1.0f, 30.0f, 81.95f}, 0.0f, 0.1f);
   const ScanPoints all = prepare_scan(s);

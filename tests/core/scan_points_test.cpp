@@ -52,6 +52,15 @@ TEST(PrepareScan, MinAndMaxRangeDropBeamsWithoutMakingThemNoReturns) {
   EXPECT_EQ(prepare_scan(scan_of({29.0f}), 0.0f, 0.0f).size(), 1u);
 }
 
+TEST(PrepareScan, ReadingsOfAKilometreOrMoreAreNoReturnsWhateverTheScanMaximum) {
+  // A scan message may declare any finite max_range; end points stop at kMaxBeamRange.
+  LaserScan s = scan_of({999.0f, kMaxBeamRange, 1e7f, 3e38f, 2.0f});
+  s.max_range = 3.4e38f;
+  const ScanPoints p = prepare_scan(s);
+  EXPECT_EQ(p.range, (std::vector<float>{999.0f, 2.0f}));
+  EXPECT_EQ(p.no_return_angles.size(), 3u);
+}
+
 TEST(PrepareScan, NonFiniteAndNegativeReadingsAreDropped) {
   const float nan = std::numeric_limits<float>::quiet_NaN();
   const float inf = std::numeric_limits<float>::infinity();

@@ -31,10 +31,16 @@ struct BeamFill {
 /// is at least max_step_deg fine; at most 64).
 int beam_fill_points(const LaserScan& scan, const BeamFill& fill);
 
+/// The farthest reading taken as an end point, whatever the scan's max_range says (metres): no
+/// 2D laser measures a kilometre, and the map update walks a beam cell by cell (20 000 cells
+/// of 5 cm per km). A scan message may declare any finite max_range: a hostile or broken one
+/// with readings of 10 000 km made one scan's map update walk hundreds of millions of cells.
+inline constexpr float kMaxBeamRange = 1000.0f;
+
 /// Valid beams are those with min_range <= r < min(scan.max_range, max_range); max_range <= 0
-/// means no extra limit. Readings at or beyond scan.max_range are no-return beams. Readings
-/// below min_range are dropped. The reader has already rejected NaN/inf/negative ranges; any
-/// that remain are dropped here too. End points are in beam order, filled per `fill`.
+/// means no extra limit. Readings at or beyond scan.max_range, or kMaxBeamRange, are no-return
+/// beams. Readings below min_range are dropped. The reader has already rejected NaN/inf/negative
+/// ranges; any that remain are dropped here too. End points are in beam order, filled per `fill`.
 ScanPoints prepare_scan(const LaserScan& scan, float min_range = 0.0f, float max_range = 0.0f,
                         const BeamFill& fill = {});
 
