@@ -131,11 +131,14 @@ TEST(MapUpdateTest, BeamsAcrossTilesCountAsTheTraversalsCells) {
   const ScanPoints points = prepare_scan(scan_of(ranges, -3.1f, 0.0086f));
   const Pose2 first{0.123, -0.456, 0.3}, second{-0.61, 0.27, -1.2};
   const auto write_reference = [&](const Pose2& pose, bool remove) {
+    // The end points in cell units computed as update_map does (times the inverse cell size),
+    // so that a point on a cell border lands in the same cell on both maps.
+    const double inv = 1.0 / config.cell_size;
     const double c = std::cos(pose.theta), s = std::sin(pose.theta);
-    const double sx = pose.x / config.cell_size, sy = pose.y / config.cell_size;
+    const double sx = pose.x * inv, sy = pose.y * inv;
     for (std::size_t i = 0; i < points.size(); ++i) {
-      const double ex = sx + (c * points.x[i] - s * points.y[i]) / config.cell_size;
-      const double ey = sy + (s * points.x[i] + c * points.y[i]) / config.cell_size;
+      const double ex = sx + (c * points.x[i] - s * points.y[i]) * inv;
+      const double ey = sy + (s * points.x[i] + c * points.y[i]) * inv;
       const double f = (points.range[i] - update.free_margin) / points.range[i];
       const double stop_x = sx + f * (ex - sx), stop_y = sy + f * (ey - sy);
       const CellIndex end{static_cast<std::int32_t>(std::floor(ex)),
