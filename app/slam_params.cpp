@@ -15,6 +15,10 @@ void add_slam_params(ParamTable& t, SlamConfig* s, CarmenReaderOptions* r) {
                "samples per metre along a beam when exact_traversal is off (paper alpha^Res)");
   t.add_double("no_return_clear_range", &s->update.no_return_clear_range,
                "no-return beams clear cells up to this range, metres (0 = not at all)");
+  t.add_double("write_range", &s->update.write_range,
+               "end points farther than this are not written into the map: their beams clear "
+               "cells up to this range and hit none, metres (at most 1000; GMapping's maxUrange; "
+               "the matching still uses them)");
   t.add_double("free_margin", &s->update.free_margin,
                "a beam clears the cells it crosses up to this short of its end point, metres "
                "(0 = every crossed cell, the paper)");

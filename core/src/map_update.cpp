@@ -23,11 +23,16 @@ void MapUpdateConfig::validate() const {
   if (!(alpha_res > 0.0) || !std::isfinite(alpha_res)) {
     throw std::invalid_argument("update.alpha_res must be > 0, got " + std::to_string(alpha_res));
   }
+  if (!(write_range > 0.0) || !(write_range <= kMaxBeamRange)) {
+    throw std::invalid_argument("update.write_range must be in (0, " +
+                                std::to_string(static_cast<int>(kMaxBeamRange)) + "] m, got " +
+                                std::to_string(write_range));
+  }
   require_non_negative(no_return_clear_range, "no_return_clear_range");
-  if (no_return_clear_range > kMaxBeamRange) {
-    throw std::invalid_argument("update.no_return_clear_range must be at most " +
-                                std::to_string(static_cast<int>(kMaxBeamRange)) + " m, got " +
-                                std::to_string(no_return_clear_range));
+  if (no_return_clear_range > write_range) {
+    throw std::invalid_argument(
+        "update.no_return_clear_range must be at most update.write_range (" +
+        std::to_string(write_range) + " m), got " + std::to_string(no_return_clear_range));
   }
   require_non_negative(free_margin, "free_margin");
   require_non_negative(beam_fill_deg, "beam_fill");
@@ -97,11 +102,17 @@ MapUpdateStats update_cells(GridMap& map, const ScanPoints& points, const Pose2&
   for (std::size_t i = 0; i < points.size(); ++i) {
     const double ex = sx + (c * points.x[i] - s * points.y[i]) * inv;
     const double ey = sy + (s * points.x[i] + c * points.y[i]) * inv;
+    const double range = points.range[i];
+    if (range > config.write_range) {
+      // Beyond the map-writing range: no end point, the beam clears up to the range.
+      const double f = config.write_range / range;
+      counter.errs_along(sx, sy, sx + f * (ex - sx), sy + f * (ey - sy));
+      continue;
+    }
     const CellIndex end{static_cast<std::int32_t>(std::floor(ex)),
                         static_cast<std::int32_t>(std::floor(ey))};
     // The err counting ends at `stop` (the beam shortened by the margin); its cell is counted
     // too unless it is the end point's.
-    const double range = points.range[i];
     if (range > config.free_margin) {
       const double f = config.free_margin > 0.0 ? (range - config.free_margin) / range : 1.0;
       const double stop_x = f < 1.0 ? sx + f * (ex - sx) : ex;

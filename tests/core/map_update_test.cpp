@@ -341,10 +341,83 @@ TEST(MapUpdateTest, AScanDeclaringAHugeMaximumWalksAtMostAKilometrePerBeam) {
   EXPECT_EQ(stats.hits, 1u);
   EXPECT_EQ(map.tile_keys(), alone.tile_keys());
   MapUpdateConfig far;
+  far.write_range = 1000.0;
   far.no_return_clear_range = 1000.5;
   EXPECT_THROW(far.validate(), std::invalid_argument);
   far.no_return_clear_range = 1000.0;
   EXPECT_NO_THROW(far.validate());
+}
+
+TEST(MapUpdateTest, EndPointsBeyondTheWriteRangeClearUpToItAndHitNothing) {
+  MapUpdateConfig config;
+  config.write_range = 5.0;
+  GridMap map = unit_map();
+  // Along +x from (0.5, 0.5): an 8 m beam is cut at 5 m (x = 5.5), a 4 m one is written.
+  const ScanPoints far = prepare_scan(scan_of({8.0f}, 0.0f, 0.0f));
+  MapUpdateStats stats = update_map(map, far, Pose2{0.5, 0.5, 0.0}, config);
+  EXPECT_EQ(stats.hits, 0u);
+  EXPECT_EQ(stats.errs, 5u);
+  for (int x = 0; x < 5; ++x) EXPECT_EQ(map.err({x, 0}), 1u) << x;
+  for (int x = 5; x <= 8; ++x) EXPECT_EQ(map.err({x, 0}) + map.hit({x, 0}), 0u) << x;
+  stats = update_map(map, prepare_scan(scan_of({4.0f}, 0.0f, 0.0f)), Pose2{0.5, 0.5, 0.0}, config);
+  EXPECT_EQ(stats.hits, 1u);
+  EXPECT_EQ(map.hit({4, 0}), 1u);
+  // Exactly at the range is written; the paper's sampling cuts the same way.
+  config.exact_traversal = false;
+  stats = update_map(map, prepare_scan(scan_of({5.0f}, 0.0f, 0.0f)), Pose2{0.5, 0.5, 0.0}, config);
+  EXPECT_EQ(stats.hits, 1u);
+  EXPECT_EQ(map.hit({5, 0}), 1u);
+  stats = update_map(map, far, Pose2{0.5, 0.5, 0.0}, config);
+  EXPECT_EQ(stats.hits, 0u);
+  EXPECT_EQ(stats.errs, 5u);
+  // Taking the cut beam out again leaves the counters as they were before it.
+  update_map(map, far, Pose2{0.5, 0.5, 0.0}, config, /*remove=*/true);
+  update_map(map, far, Pose2{0.5, 0.5, 0.0}, config, /*remove=*/true);
+  for (int x = 0; x < 4; ++x) EXPECT_EQ(map.err({x, 0}), 2u) << x;  // the 4 m and 5 m beams
+  EXPECT_EQ(map.err({4, 0}), 1u);
+
+  for (const double bad : {0.0, -1.0, 1000.5, std::numeric_limits<double>::quiet_NaN()}) {
+    MapUpdateConfig c;
+    c.write_range = bad;
+    EXPECT_THROW(c.validate(), std::invalid_argument) << bad;
+  }
+  MapUpdateConfig clear;
+  clear.no_return_clear_range = 80.5;  // beyond the default write range
+  try {
+    clear.validate();
+    ADD_FAILURE() << "no_return_clear_range beyond write_range accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("update.no_return_clear_range"), std::string::npos)
+        << e.what();
+  }
+}
+
+TEST(MapUpdateTest, AScanOfKilometreReadingsWritesOnlyWithinTheWriteRange) {
+  // 5 cm cells and 64-cell tiles (3.2 m), the defaults. Ten beams over 360 degrees, every one
+  // reading 999 m under a declared 1000 m maximum: each walked 20 000 cells and the scan
+  // created a thousand tiles out to a kilometre. With the default 80 m write range each beam
+  // walks at most 80 m (a 4-connected path of at most sqrt(2) * 1 600 cells) and hits nothing,
+  // and every tile lies within 80 m of the robot.
+  GridMap map;
+  const MapUpdateConfig config;
+  LaserScan s = scan_of(std::vector<float>(10, 999.0f), -3.0f, 0.6f);
+  s.max_range = 1000.0f;
+  const ScanPoints points = prepare_scan(s);
+  ASSERT_EQ(points.size(), 10u);
+  const Pose2 pose{3.0, -2.0, 0.4};
+  const MapUpdateStats stats = update_map(map, points, pose, config);
+  EXPECT_EQ(stats.hits, 0u);
+  EXPECT_EQ(stats.out_of_range, 0u);
+  EXPECT_GT(stats.errs, 10u * 1600u);
+  EXPECT_LE(stats.errs, 10u * 2264u);
+  const double tile = map.cell_size() * map.tile_edge();
+  for (const TileKey k : map.tile_keys()) {
+    // The tile's nearest point to the robot is within the range.
+    const double nx = std::clamp(pose.x, k.tx * tile, (k.tx + 1) * tile);
+    const double ny = std::clamp(pose.y, k.ty * tile, (k.ty + 1) * tile);
+    EXPECT_LE(std::hypot(nx - pose.x, ny - pose.y), config.write_range) << k.tx << " " << k.ty;
+  }
+  EXPECT_LE(map.tile_count(), 10u * 40u);
 }
 
 TEST(MapUpdateTest, PrepareScanDropsShortAndOverLimitBeams) {

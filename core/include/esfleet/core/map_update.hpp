@@ -29,7 +29,16 @@ struct MapUpdateConfig {
   bool exact_traversal = true;
   double alpha_res = 20.0;  ///< sample points per metre of beam when exact_traversal is false
   /// No-return beams clear cells up to this range (metres); 0 = they change nothing (default).
+  /// At most write_range.
   double no_return_clear_range = 0.0;
+  /// The map-writing range (metres, in (0, kMaxBeamRange]; like GMapping's usable range
+  /// maxUrange, whose default it takes): an end point farther than this is not written, and
+  /// its beam clears the cells it crosses up to this range, as a no-return beam clears them
+  /// up to no_return_clear_range. The matching still uses it. It bounds what one scan costs:
+  /// a scan of 10 000 beams all reading 999 m walked 2.6e8 cells and created tiles up to
+  /// 11.2 GB in 74 s (docs/fuzzing.md, "What one scan may cost"); a laser's own no-returns
+  /// (81.9 m on CSAIL and fr079) are beyond it, and their readings below it.
+  double write_range = 80.0;
   /// A beam counts err only in the cells it crosses more than this before its end point
   /// (metres; 0 = every crossed cell, the paper). The cell a beam ends in always gets its hit.
   double free_margin = 0.15;
