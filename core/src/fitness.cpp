@@ -20,13 +20,6 @@ void scale_points(const ScanPoints& points, double inv_cell, int stride, std::ve
   }
 }
 
-/// A candidate whose origin lies this far out in cell units (or is not finite) scores zero
-/// rather than overflowing the cell index conversion.
-bool beyond_any_map(double ox, double oy) {
-  constexpr double kFar = 1e8;
-  return !(std::abs(ox) < kFar && std::abs(oy) < kFar);
-}
-
 inline std::int32_t fast_floor(float v) {
   const auto i = static_cast<std::int32_t>(v);
   return i - static_cast<std::int32_t>(v < static_cast<float>(i));

@@ -10,8 +10,8 @@
 namespace esfleet {
 
 void GridMapConfig::validate() const {
-  if (!(cell_size > 0.0) || !std::isfinite(cell_size) || cell_size > 10.0) {
-    throw std::invalid_argument("map.cell_size must be in (0, 10] m, got " +
+  if (!(cell_size >= 0.001) || !std::isfinite(cell_size) || cell_size > 10.0) {
+    throw std::invalid_argument("map.cell_size must be in [0.001, 10] m, got " +
                                 std::to_string(cell_size));
   }
   if (tile_edge < 8 || tile_edge > 1024 || !std::has_single_bit(static_cast<unsigned>(tile_edge))) {

@@ -99,6 +99,7 @@ MapUpdateStats update_cells(GridMap& map, const ScanPoints& points, const Pose2&
   const double inv = 1.0 / map.cell_size();
   const double c = std::cos(pose.theta), s = std::sin(pose.theta);
   const double sx = pose.x * inv, sy = pose.y * inv;
+  if (beyond_any_map(sx, sy) || !std::isfinite(pose.theta)) return stats;  // nothing to write
   for (std::size_t i = 0; i < points.size(); ++i) {
     const double ex = sx + (c * points.x[i] - s * points.y[i]) * inv;
     const double ey = sy + (s * points.x[i] + c * points.y[i]) * inv;

@@ -253,7 +253,7 @@ Consistency consistency(const GridMap& map, const ScanPoints& points, const Pose
                         int tolerance) {
   Consistency out;
   const std::size_t n = points.size();
-  if (n == 0) return out;
+  if (n == 0 || beyond_any_map(pose.x / map.cell_size(), pose.y / map.cell_size())) return out;
   const GridMap::Lookup lookup = map.lookup(0);
   const GridMap::Lookup::Addressing a = lookup.addressing();
   const double inv_cell = 1.0 / map.cell_size();
@@ -312,6 +312,7 @@ RecoveryResult recover_pose(const RecoveryConfig& config, const TrackingConfig& 
   RecoveryResult out;
   out.result.pose = centre;
   const double inv_cell = 1.0 / map.cell_size();
+  if (beyond_any_map(centre.x * inv_cell, centre.y * inv_cell)) return out;
   CellPoints pts = sample_points(config, points, inv_cell);
   const std::size_t n = pts.x.size();
   if (n == 0) return out;

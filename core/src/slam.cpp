@@ -229,6 +229,10 @@ SlamStep Slam::process_scan(const LaserScan& scan) {
       insert = false;
       step.withheld = true;
     }
+    if (insert && beyond_any_map(step.pose.x / map_.cell_size(), step.pose.y / map_.cell_size())) {
+      insert = false;  // no map reaches it (update_map would write nothing): no key scan
+      step.withheld = true;
+    }
     const Pose2& prev = trajectory_.back().pose;
     path_length_ += std::hypot(step.pose.x - prev.x, step.pose.y - prev.y);
   }

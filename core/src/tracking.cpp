@@ -193,6 +193,15 @@ TrackResult track_scan(const TrackingConfig& config, const EvolutionStrategy& es
   TrackResult out;
   std::vector<Pose2> alternatives;
   out.predicted = predict_pose(config, motion, scan, &alternatives);
+  const double inv_cell = 1.0 / map.cell_size();
+  if (beyond_any_map(out.predicted.x * inv_cell, out.predicted.y * inv_cell) && motion.odometry) {
+    // An odometry step to where no map reaches (a broken or hostile message: the converters
+    // check only that it is finite) is not followed: predicted without the odometry.
+    MotionState without = motion;
+    without.odometry.reset();
+    alternatives.clear();
+    out.predicted = predict_pose(config, without, scan, &alternatives);
+  }
   // Hypotheses: the centre first, then the other motion hypotheses when switched on.
   std::vector<Pose2> hypotheses{out.predicted};
   if (config.motion_hypotheses) {

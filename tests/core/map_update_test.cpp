@@ -392,6 +392,33 @@ TEST(MapUpdateTest, EndPointsBeyondTheWriteRangeClearUpToItAndHitNothing) {
   }
 }
 
+TEST(MapUpdateTest, APoseBeyondAnyMapWritesNothing) {
+  // A pose of 1e300 m (a wild odometry message the converters let through as finite) is 2e301
+  // cells of 5 cm: its int32 cell index overflowed (undefined behaviour; fuzz_slam finding 5).
+  // No map reaches so far, so nothing is written, not even a refused write.
+  const ScanPoints points = prepare_scan(scan_of({3.0f, 90.0f}, 0.0f, 0.5f));
+  for (const Pose2 pose : {Pose2{1e300, 0.0, 0.0}, Pose2{0.0, -1.7e308, 0.0}, Pose2{6e6, 0.0, 0.0},
+                           Pose2{0.0, 0.0, std::nan("")}}) {
+    GridMap map;
+    const MapUpdateStats stats = update_map(map, points, pose);
+    EXPECT_EQ(stats.hits + stats.errs + stats.out_of_range, 0u) << pose.x << " " << pose.y;
+    EXPECT_EQ(map.tile_count(), 0u);
+  }
+  // 5 000 km (1e8 cells of 5 cm) is beyond any map; 4 000 km is merely outside this one.
+  EXPECT_TRUE(beyond_any_map(1e8, 0.0));
+  EXPECT_TRUE(beyond_any_map(0.0, std::numeric_limits<double>::infinity()));
+  EXPECT_FALSE(beyond_any_map(-8e7, 8e7));
+  GridMap map;
+  const MapUpdateStats outside = update_map(map, points, Pose2{4e6, 0.0, 0.0});
+  EXPECT_GT(outside.out_of_range, 0u);
+  EXPECT_EQ(map.tile_count(), 0u);
+  GridMapConfig fine;
+  fine.cell_size = 0.0005;  // below a millimetre: a kilometre beam could overflow int32 cells
+  EXPECT_THROW(fine.validate(), std::invalid_argument);
+  fine.cell_size = 0.001;
+  EXPECT_NO_THROW(fine.validate());
+}
+
 TEST(MapUpdateTest, AScanOfKilometreReadingsWritesOnlyWithinTheWriteRange) {
   // 5 cm cells and 64-cell tiles (3.2 m), the defaults. Ten beams over 360 degrees, every one
   // reading 999 m under a declared 1000 m maximum: each walked 20 000 cells and the scan

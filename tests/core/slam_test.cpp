@@ -261,6 +261,39 @@ TEST(Slam, OdometryPredictionFollowsFastMotion) {
   EXPECT_LT(e.theta_deg, 1.0);
 }
 
+TEST(Slam, AWildOdometryJumpIsNotFollowed) {
+  // A driver restarted (its odometry jumps back to its origin, 523 m away) or a broken or
+  // hostile message (1e300 m, which ROS 2's Odometry converter lets through as finite): the
+  // SLAM keeps tracking the laser, and nothing is written far away. The 523 m jump is beaten
+  // by the other motion hypotheses; a step beyond any map is dropped before the search (it
+  // used to be followed, and 1e300 m in cells overflowed the map update's int32 cell indices:
+  // fuzz_slam, docs/fuzzing.md finding 5).
+  const auto path = room_path(0.1);
+  for (const double jump : {-523.0, 1e300, -1.7e308}) {
+    auto scans = scans_along(path);
+    for (std::size_t i = 0; i < scans.size(); ++i) {
+      scans[i].odometry = path[i];
+      if (i == 20) scans[i].odometry->x += jump;                          // one wild message
+      if (i >= 40 && std::abs(jump) < 1e6) scans[i].odometry->x += jump;  // a reset that stays
+    }
+    SlamConfig config;
+    config.tracking.use_odometry = true;
+    Slam slam(config);
+    for (const LaserScan& s : scans) {
+      const SlamStep step = slam.process(s);
+      EXPECT_LT(std::hypot(step.pose.x, step.pose.y), 100.0) << jump;  // never followed
+      const double tile = slam.map().cell_size() * slam.map().tile_edge();
+      for (const TileKey k : slam.map().tile_keys()) {
+        ASSERT_LT(std::abs(k.tx * tile), 100.0) << jump;  // the room is 12 m
+        ASSERT_LT(std::abs(k.ty * tile), 100.0) << jump;
+      }
+    }
+    const TrackError e = track_error(slam.trajectory(), path);
+    EXPECT_LT(e.xy, 0.1) << jump;
+    EXPECT_LT(e.theta_deg, 2.0) << jump;
+  }
+}
+
 TEST(Slam, FirstScanIsAtTheOriginAndMapIsBuilt) {
   const auto scans = scans_along(room_path(0.1));
   Slam slam;

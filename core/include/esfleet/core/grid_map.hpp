@@ -34,6 +34,18 @@ struct CellIndex {
   friend bool operator==(const CellIndex&, const CellIndex&) = default;
 };
 
+/// True when cell coordinates (world coordinates over the cell size) are not finite or lie so
+/// far out that no map reaches them: the allowed tiles end within 2^24 cells of the origin
+/// (GridMapConfig: max_tile_coord <= 2^14, tile_edge <= 2^10). Code that turns a pose into
+/// cell indices checks this first: such a pose scores nothing and writes nothing, where the
+/// conversion to int32 would overflow (a wild odometry message put the robot at 1e300 m). Within
+/// it, a beam of at most kMaxBeamRange (1000 m, scan_points.hpp) on cells of at least 1 mm adds
+/// at most 1e6 cells, well inside int32.
+inline bool beyond_any_map(double cx, double cy) {
+  constexpr double kFar = 1e8;
+  return !(std::abs(cx) < kFar && std::abs(cy) < kFar);
+}
+
 struct TileKey {
   std::int32_t tx = 0;
   std::int32_t ty = 0;

@@ -84,7 +84,8 @@ MapPoints map_points(const LaserScan& scan, float min_range, float max_range,
 /// once, touched tiles marked dirty). With `remove`, undoes exactly what the same call without
 /// it added (counters are additive), e.g. to move a scan after loop closure; with
 /// `commit` false the caller commits (to batch several scans into one map update), and the
-/// changed cells keep their old scores until it does (GridMap::add_err_deferred).
+/// changed cells keep their old scores until it does (GridMap::add_err_deferred). A pose
+/// beyond any map (beyond_any_map), or with a heading that is not finite, writes nothing.
 MapUpdateStats update_map(GridMap& map, const ScanPoints& points, const Pose2& pose,
                           const MapUpdateConfig& config = {}, bool remove = false,
                           bool commit = true);

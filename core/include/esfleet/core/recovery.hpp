@@ -180,6 +180,7 @@ struct Consistency {
   float see_through = 0.0f;
   float score() const { return evidence - contradiction - see_through; }
 };
+/// All zero for a pose beyond any map (beyond_any_map).
 Consistency consistency(const GridMap& map, const ScanPoints& points, const Pose2& pose,
                         int tolerance);
 
@@ -213,7 +214,7 @@ struct RecoveryResult {
 /// heading, as a turn is what a prediction gets most wrong), finished by `es` with
 /// `tracking`'s fitness. Draws
 /// from `rng`. Returns nothing useful (coarse empty, result.value all zero) when the map has
-/// nothing known in the window.
+/// nothing known in the window, or the centre lies beyond any map (beyond_any_map).
 RecoveryResult recover_pose(const RecoveryConfig& config, const TrackingConfig& tracking,
                             const EvolutionStrategy& es, Rng& rng, const GridMap& map,
                             const ScanPoints& points, const Pose2& centre);

@@ -118,7 +118,8 @@ struct TrackResult {
 
 /// Predicts, searches (ES with config.es from an initial population around the prediction and
 /// the motion hypotheses, times the motion prior when on) and polishes (config.refine) the pose
-/// of `points` (prepared from `scan`) in `map`. Draws from `rng`.
+/// of `points` (prepared from `scan`) in `map`. Draws from `rng`. An odometry prediction
+/// beyond any map (beyond_any_map) is dropped: the scan is predicted as if without odometry.
 TrackResult track_scan(const TrackingConfig& config, const EvolutionStrategy& es, Rng& rng,
                        const GridMap& map, const ScanPoints& points, const LaserScan& scan,
                        const MotionState& motion);
