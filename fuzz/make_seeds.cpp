@@ -1,17 +1,26 @@
-// Writes the committed seeds of fuzz_tile and fuzz_map_loader from a real map: the scans of a
-// CARMEN excerpt inserted at their odometry poses.
+// Writes the committed seeds of fuzz_tile, fuzz_map_loader and fuzz_slam from a real map: the
+// scans of a CARMEN excerpt inserted at their odometry poses, and the scans themselves.
 //  - fuzz_tile (layout: tile_records.hpp): every tile encoded by tile_codec the way the leader
 //    sends it (tile_to_msg, tile_delta_to_msg, meta_to_msg), in each encoding;
 //  - fuzz_map_loader (YAML, NUL, image): the map saved by save_ros_map (P5 PGM) at a coarse cell
-//    size, the same as a P2 PGM with a comment, and as save_map_png's colour PNG, in each mode.
+//    size, the same as a P2 PGM with a comment, and as save_map_png's colour PNG, in each mode;
+//  - fuzz_slam: the excerpt's first four scans with their odometry, laser only and with
+//    odometry and the final pass, in the layout fuzz_slam.cpp reads with FuzzedDataProvider.
 //
 // usage: make_seeds LOG CORPUS_DIR    (fuzz/corpus holds its output for
 //        tests/data/carmen/mit-csail-excerpt.clf; run from the fuzz build: bin/make_seeds)
 
+#include <fuzzer/FuzzedDataProvider.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -92,6 +101,93 @@ void map_loader_seeds(const std::vector<esfleet::LaserScan>& scans, const std::s
   save(dir + "/png-rgb-negate", edit(png_yaml, "negate: 0", "negate: 1") + nul + png);
 }
 
+/// Writes what FuzzedDataProvider reads back: its integers come from the end of the input, the
+/// first one read from the last bytes, most significant byte first; its floating-point values are
+/// a probability (an integer over its maximum) scaled into the range. Every value put is read back
+/// by a FuzzedDataProvider at the end (check()), so the seed means what it says.
+class ProviderWriter {
+ public:
+  template <class T>
+  void integral(T value, T min, T max) {
+    const std::uint64_t range = static_cast<std::uint64_t>(max) - static_cast<std::uint64_t>(min);
+    const std::uint64_t v = static_cast<std::uint64_t>(value) - static_cast<std::uint64_t>(min);
+    std::size_t n = 0;
+    while (n < sizeof(T) && (range >> (8 * n)) > 0) ++n;
+    for (std::size_t k = 0; k < n; ++k)
+      read_order_.push_back(static_cast<std::uint8_t>(v >> (8 * (n - 1 - k))));
+    checks_.push_back(
+        [=](FuzzedDataProvider& in) { return in.ConsumeIntegralInRange<T>(min, max) == value; });
+  }
+  template <class T>
+  void integral(T value) {
+    integral<T>(value, std::numeric_limits<T>::min(), std::numeric_limits<T>::max());
+  }
+  void boolean(bool b) {
+    integral<std::uint8_t>(b ? 1 : 0);
+    checks_.back() = [=](FuzzedDataProvider& in) { return in.ConsumeBool() == b; };
+  }
+  /// `value` in [min, max] (a range that does not overflow T).
+  template <class T>
+  void floating(T value, T min, T max) {
+    using U = std::conditional_t<sizeof(T) <= 4, std::uint32_t, std::uint64_t>;
+    const long double p =
+        (static_cast<long double>(value) - min) / (static_cast<long double>(max) - min);
+    integral<U>(
+        static_cast<U>(std::llroundl(p * static_cast<long double>(std::numeric_limits<U>::max()))));
+    checks_.back() = [=](FuzzedDataProvider& in) {
+      const T got = in.ConsumeFloatingPointInRange<T>(min, max);
+      return std::abs(static_cast<double>(got) - static_cast<double>(value)) <=
+             1e-5 * (static_cast<double>(max) - min);
+    };
+  }
+  /// The input, after checking that FuzzedDataProvider reads every value back.
+  std::string bytes() const {
+    const std::string out(read_order_.rbegin(), read_order_.rend());
+    FuzzedDataProvider in(reinterpret_cast<const std::uint8_t*>(out.data()), out.size());
+    for (std::size_t i = 0; i < checks_.size(); ++i) {
+      if (!checks_[i](in))
+        throw std::runtime_error("fuzz_slam seed: value " + std::to_string(i) +
+                                 " reads back differently");
+    }
+    return out;
+  }
+
+ private:
+  std::vector<std::uint8_t> read_order_;
+  std::vector<std::function<bool(FuzzedDataProvider&)>> checks_;
+};
+
+/// fuzz_slam seeds (its layout: fuzz_slam.cpp): the first four scans as LaserScan messages with
+/// their odometry, laser only, and with odometry and the final pass.
+void slam_seeds(const std::vector<esfleet::LaserScan>& scans, const std::string& dir) {
+  const std::size_t count = std::min<std::size_t>(4, scans.size());
+  for (const std::uint8_t switches : {std::uint8_t{0}, std::uint8_t{1 | 8}}) {
+    ProviderWriter w;
+    w.integral<std::uint8_t>(switches);
+    w.integral<int>(static_cast<int>(count), 1, 4);
+    for (std::size_t i = 0; i < count; ++i) {
+      const esfleet::LaserScan& s = scans[i];
+      w.integral<std::uint16_t>(static_cast<std::uint16_t>(s.ranges.size()), 2, 720);
+      w.floating<float>(s.angle_min, -7.0f, 7.0f);
+      w.floating<float>(s.angle_increment, -1.1f, 1.1f);
+      w.floating<float>(0.0f, 0.0f, 5.0f);  // range_min
+      w.boolean(true);
+      w.floating<float>(s.max_range, 0.0f, 2000.0f);
+      w.integral<int>(0, 0, 2);  // readings in centimetres
+      for (const float r : s.ranges) {
+        w.integral<std::uint16_t>(
+            static_cast<std::uint16_t>(std::lround(std::min(r, 655.0f) * 100.0f)));
+      }
+      const esfleet::Pose2 odom = s.odometry->relative_to(*scans.front().odometry);
+      w.boolean(false);  // not wild
+      w.floating<double>(odom.x, -50.0, 50.0);
+      w.floating<double>(odom.y, -50.0, 50.0);
+      w.floating<double>(odom.theta, -4.0, 4.0);
+    }
+    save(dir + "/csail-4-scans-" + std::to_string(switches), w.bytes());
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -101,6 +197,7 @@ int main(int argc, char** argv) {
   }
   const std::vector<esfleet::LaserScan> scans = esfleet::read_carmen_log(argv[1]);
   map_loader_seeds(scans, std::string(argv[2]) + "/fuzz_map_loader");
+  slam_seeds(scans, std::string(argv[2]) + "/fuzz_slam");
   const std::string dir = std::string(argv[2]) + "/fuzz_tile";
   esfleet::GridMap map;
   const esfleet::mapshare::MapIdentity id{"fuzz", 1};

@@ -2,7 +2,7 @@
 # Runs one libFuzzer target of the fuzz build (docs/fuzzing.md) for a while and reports.
 #
 # usage: fuzz/run.sh TARGET SECONDS [JOBS]
-#   TARGET  fuzz_carmen | fuzz_map_loader | fuzz_tile | fuzz_ros_msg
+#   TARGET  fuzz_carmen | fuzz_map_loader | fuzz_tile | fuzz_ros_msg | fuzz_slam
 #   JOBS    parallel fuzzing processes (default 1)
 # Environment: ESFLEET_FUZZ_BUILD (default <repo>/build-fuzz) holds the built targets.
 #
@@ -31,6 +31,7 @@ case $target in
   fuzz_carmen) max_len=8192 ;;
   fuzz_map_loader) max_len=8192 ;;
   fuzz_tile) max_len=70000 ;;
+  fuzz_slam) max_len=16384 ;;
   *) max_len=4096 ;;
 esac
 opts=(-max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -max_len="$max_len"
