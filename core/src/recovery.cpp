@@ -278,6 +278,20 @@ Consistency consistency(const GridMap& map, const ScanPoints& points, const Pose
   // A beam looks through a wall when a cell more than `margin` cells before its end point was
   // seen occupied more often than free.
   constexpr double kMargin = 3.0;
+  // The walk visits only the samples within the tiles' bounding box (plus one each side): every
+  // cell outside it is unknown, so no sample there can look through a wall. A scan reading
+  // 999 m walked 20 000 cells per beam.
+  const GridMap::Bounds box = map.tile_bounds();
+  if (box.empty) return out;
+  auto inside = [](double o, double d, double lo, double hi, double& t0, double& t1) {
+    if (d == 0.0) {
+      if (o < lo || o >= hi) t1 = -1.0;  // parallel and outside: no sample inside
+      return;
+    }
+    const double ta = (lo - o) / d, tb = (hi - o) / d;
+    t0 = std::max(t0, std::min(ta, tb));
+    t1 = std::min(t1, std::max(ta, tb));
+  };
   int hit = 0, free = 0, through = 0;
   for (std::size_t i = 0; i < n; ++i) {
     const double ex = points.x[i] * inv_cell, ey = points.y[i] * inv_cell;
@@ -292,7 +306,12 @@ Consistency consistency(const GridMap& map, const ScanPoints& points, const Pose
     const int steps = static_cast<int>(len - kMargin);
     if (steps <= 1) continue;
     const double dx = (wx - ox) / len, dy = (wy - oy) / len;
-    for (int k = 1; k < steps; ++k) {
+    double t0 = 0.0, t1 = steps;
+    inside(ox, dx, box.min.x, box.max.x + 1.0, t0, t1);
+    inside(oy, dy, box.min.y, box.max.y + 1.0, t0, t1);
+    if (t0 > t1) continue;
+    const int k_end = std::min(steps, static_cast<int>(t1) + 2);
+    for (int k = std::max(1, static_cast<int>(t0) - 1); k < k_end; ++k) {
       if (score_at(ox + dx * k, oy + dy * k) > 0.5f) {
         ++through;
         break;
@@ -326,10 +345,18 @@ RecoveryResult recover_pose(const RecoveryConfig& config, const TrackingConfig& 
   const auto factor = std::int32_t{1} << config.coarse_level;
   const double reach = (config.window_xy + far) * inv_cell + 2.0;
   const double cx = centre.x * inv_cell, cy = centre.y * inv_cell;
-  const LocalWindow window(
-      map, floor_f(static_cast<float>(cx - reach)), floor_f(static_cast<float>(cy - reach)),
-      floor_f(static_cast<float>(cx + reach)), floor_f(static_cast<float>(cy + reach)), factor,
-      static_cast<float>(config.free_penalty));
+  // Only where the tiles are: every cell outside them is unknown, and a pooled block of unknown
+  // cells is worth 0, as is a block outside the window. The window is whole blocks, so the
+  // blocks it keeps are pooled as without the clip. (A scan reading 999 m made the window
+  // 40 000 cells wide: 1.6e9 look-ups per recovery.)
+  const GridMap::Bounds tiles = map.tile_bounds();
+  const std::int32_t x_min = std::max(floor_f(static_cast<float>(cx - reach)), tiles.min.x);
+  const std::int32_t y_min = std::max(floor_f(static_cast<float>(cy - reach)), tiles.min.y);
+  const std::int32_t x_max = std::min(floor_f(static_cast<float>(cx + reach)), tiles.max.x);
+  const std::int32_t y_max = std::min(floor_f(static_cast<float>(cy + reach)), tiles.max.y);
+  if (tiles.empty || x_min > x_max || y_min > y_max) return out;  // nothing known in reach
+  const LocalWindow window(map, x_min, y_min, x_max, y_max, factor,
+                           static_cast<float>(config.free_penalty));
   if (!window.any_hit()) return out;
 
   // Coarse: positions in steps of half a pooled block, headings that move an end point at the

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <random>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -117,6 +118,92 @@ TEST(Recovery, ConsistencySeesBeamsThroughWalls) {
     const Consistency empty = consistency(GridMap{}, points, truth, tolerance);
     EXPECT_EQ(empty.evidence, 0.0f);
     EXPECT_EQ(empty.see_through, 0.0f);
+  }
+}
+
+/// consistency() without its clip to the tiles: every sample of every beam looked up with
+/// GridMap::score (the reference for the test below).
+Consistency consistency_walking_everything(const GridMap& map, const ScanPoints& points,
+                                           const Pose2& pose, int tolerance) {
+  const double inv = 1.0 / map.cell_size();
+  const double c = std::cos(pose.theta), s = std::sin(pose.theta);
+  const double ox = pose.x * inv, oy = pose.y * inv;
+  auto at = [&](double x, double y) {
+    return map.score(
+        {static_cast<std::int32_t>(std::floor(x)), static_cast<std::int32_t>(std::floor(y))});
+  };
+  int hit = 0, free = 0, through = 0;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const double ex = points.x[i] * inv, ey = points.y[i] * inv;
+    const double wx = ox + c * ex - s * ey, wy = oy + s * ex + c * ey;
+    const float v = at(wx, wy);
+    bool near = false;
+    for (int dy = -tolerance; dy <= tolerance; ++dy) {
+      for (int dx = -tolerance; dx <= tolerance; ++dx) near |= at(wx + dx, wy + dy) > 0.0f;
+    }
+    const bool on_hit = v > 0.0f || near;
+    hit += on_hit;
+    free += !on_hit && v == 0.0f;
+    const double len = std::hypot(ex, ey);
+    const int steps = static_cast<int>(len - 3.0);
+    for (int k = 1; k < steps; ++k) {
+      if (at(ox + (wx - ox) / len * k, oy + (wy - oy) / len * k) > 0.5f) {
+        ++through;
+        break;
+      }
+    }
+  }
+  const auto n = static_cast<float>(points.size());
+  return {static_cast<float>(hit) / n, static_cast<float>(free) / n,
+          static_cast<float>(through) / n};
+}
+
+TEST(Recovery, ConsistencyWalksOnlyWhereTheTilesAreWithTheSameResult) {
+  // Beams of up to 200 m from poses inside the room's tiles, beside them and 60 m away (whose
+  // beams enter the tiles from outside, or never): the clipped walk sees every wall the full
+  // walk sees.
+  const auto world = asymmetric_room();
+  const GridMap map = map_of(world, 12, 8);
+  std::mt19937 gen(5);
+  std::uniform_real_distribution<double> place(-60.0, 70.0), turn(-3.2, 3.2);
+  std::uniform_real_distribution<float> reach(0.1f, 200.0f);
+  LaserScan scan;
+  scan.angle_min = -3.1f;
+  scan.angle_increment = 0.05f;
+  scan.max_range = 1000.0f;
+  scan.ranges.resize(124);
+  int looked_through = 0;
+  for (int trial = 0; trial < 60; ++trial) {
+    for (float& r : scan.ranges) r = reach(gen);
+    const ScanPoints points = prepare_scan(scan);
+    const Pose2 pose = trial < 20 ? Pose2{6.0 + trial * 0.1, 3.2, turn(gen)}
+                                  : Pose2{place(gen), place(gen), turn(gen)};
+    for (const int tolerance : {0, 1}) {
+      const Consistency got = consistency(map, points, pose, tolerance);
+      const Consistency want = consistency_walking_everything(map, points, pose, tolerance);
+      EXPECT_EQ(got.evidence, want.evidence) << "trial " << trial;
+      EXPECT_EQ(got.contradiction, want.contradiction) << "trial " << trial;
+      EXPECT_EQ(got.see_through, want.see_through) << "trial " << trial;
+      looked_through += want.see_through > 0.0f && trial >= 20;
+    }
+  }
+  EXPECT_GT(looked_through, 10);  // beams from outside did cross the room's walls
+
+  // A wall on the very edge of the only tile, 1 m cells: a beam from 20 m outside crosses it
+  // on its first sample inside the tile.
+  GridMap edge(GridMapConfig{.cell_size = 1.0, .tile_edge = 8});
+  for (std::int32_t y = 0; y < 8; ++y) edge.add_hit({0, y});
+  edge.commit_update();
+  LaserScan ahead;
+  ahead.angle_increment = 0.001f;
+  ahead.max_range = 1000.0f;
+  ahead.ranges = {40.0f, 40.0f};
+  const ScanPoints beams = prepare_scan(ahead);
+  for (const double x : {-20.5, -20.0, -7.2, -1.0}) {
+    const Pose2 pose{x, 3.5, 0.0};
+    const Consistency got = consistency(edge, beams, pose, 0);
+    EXPECT_EQ(got.see_through, 1.0f) << x;
+    EXPECT_EQ(got.see_through, consistency_walking_everything(edge, beams, pose, 0).see_through);
   }
 }
 

@@ -197,6 +197,13 @@ class GridMap {
   };
   /// Bounding box of cells with hit + err > 0.
   Bounds known_bounds() const;
+  /// The cells the tiles cover: the tiles' bounding box, in cells (every cell outside is
+  /// unknown). Constant time.
+  Bounds tile_bounds() const {
+    if (tiles_.empty()) return {};
+    const std::int32_t e = config_.tile_edge;
+    return {{box_tx0_ * e, box_ty0_ * e}, {(box_tx1_ + 1) * e - 1, (box_ty1_ + 1) * e - 1}, false};
+  }
 
   /// Read-only view of pyramid level `level` (0 = full resolution, cells of cell_size; level k
   /// cells of cell_size * 2^k) for the pose search; valid until the next tile is created.
