@@ -350,11 +350,12 @@ RecoveryResult recover_pose(const RecoveryConfig& config, const TrackingConfig& 
   // blocks it keeps are pooled as without the clip. (A scan reading 999 m made the window
   // 40 000 cells wide: 1.6e9 look-ups per recovery.)
   const GridMap::Bounds tiles = map.tile_bounds();
+  if (tiles.empty) return out;  // nothing known
   const std::int32_t x_min = std::max(floor_f(static_cast<float>(cx - reach)), tiles.min.x);
   const std::int32_t y_min = std::max(floor_f(static_cast<float>(cy - reach)), tiles.min.y);
   const std::int32_t x_max = std::min(floor_f(static_cast<float>(cx + reach)), tiles.max.x);
   const std::int32_t y_max = std::min(floor_f(static_cast<float>(cy + reach)), tiles.max.y);
-  if (tiles.empty || x_min > x_max || y_min > y_max) return out;  // nothing known in reach
+  if (x_min > x_max || y_min > y_max) return out;  // nothing known in reach
   const LocalWindow window(map, x_min, y_min, x_max, y_max, factor,
                            static_cast<float>(config.free_penalty));
   if (!window.any_hit()) return out;

@@ -1,7 +1,8 @@
 #include "esfleet/mapshare/map_replica.hpp"
 
-#include <bit>
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <stdexcept>
 
 namespace esfleet::mapshare {
@@ -18,24 +19,29 @@ MapReplica::MapReplica(std::string map_id, GridMapConfig local)
   local_.validate();
 }
 
-void MapReplica::reset(std::uint32_t epoch, float cell_size, int tile_edge) {
+GridMapConfig MapReplica::layout_config(float cell_size, std::uint32_t tile_edge) const {
   GridMapConfig c = local_;
   c.cell_size = cell_size;
-  c.tile_edge = tile_edge;
-  if ((1 << c.pyramid_levels) > tile_edge) c.pyramid_levels = 0;
+  c.tile_edge = static_cast<int>(std::min<std::uint32_t>(tile_edge, INT32_MAX));
+  if ((1 << c.pyramid_levels) > c.tile_edge) c.pyramid_levels = 0;
+  return c;
+}
+
+void MapReplica::reset(std::uint32_t epoch, float cell_size, int tile_edge) {
   map_.reset();
-  map_.emplace(c);
+  map_.emplace(layout_config(cell_size, static_cast<std::uint32_t>(tile_edge)));
   epoch_ = epoch;
   meta_.reset();
 }
 
 std::string MapReplica::check_layout(float cell_size, std::uint32_t tile_edge,
                                      bool against_map) const {
-  if (!std::isfinite(cell_size) || !(cell_size > 0.0f) || cell_size > 10.0f) {
-    return "cell_size " + std::to_string(cell_size) + " is not in (0, 10] m";
-  }
-  if (tile_edge < 8 || tile_edge > 1024 || !std::has_single_bit(tile_edge)) {
-    return "tile_edge " + std::to_string(tile_edge) + " is not a power of two in [8, 1024]";
+  // The map's own validation, so that whatever passes here makes a GridMap (reset()): a
+  // cell size of 0.5 mm passed an older copy of these checks and then threw in reset().
+  try {
+    layout_config(cell_size, tile_edge).validate();
+  } catch (const std::invalid_argument& e) {
+    return e.what();
   }
   if (against_map && map_) {
     if (static_cast<float>(map_->cell_size()) != cell_size) {

@@ -134,7 +134,8 @@ TEST(MapReplica, MalformedTilesAreRejectedWithAReasonAndChangeNothing) {
   const std::vector<Case> cases = {
       {"protocol", [](TileMessage& t) { t.protocol = 9; }, "protocol 9"},
       {"cells", [](TileMessage& t) { t.cells = 100; }, "cells 100"},
-      {"tile edge", [](TileMessage& t) { t.tile_edge = 63; }, "tile_edge 63"},
+      {"tile edge", [](TileMessage& t) { t.tile_edge = 63; },
+       "map.tile_edge must be a power of two in [8, 1024], got 63"},
       {"tile edge change", [](TileMessage& t) { t.tile_edge = 32; }, "differs"},
       {"cell size", [](TileMessage& t) { t.cell_size = std::nanf(""); }, "cell_size"},
       {"cell size change", [](TileMessage& t) { t.cell_size = 0.1f; }, "differs"},
@@ -148,6 +149,14 @@ TEST(MapReplica, MalformedTilesAreRejectedWithAReasonAndChangeNothing) {
       {"oversized", [](TileMessage& t) { t.payload.resize(16u << 20); },
        "payload of 16777216 bytes, more than the 41036 a tile of 4096 cells can need"},
       // A newer epoch would start a new map, but only once the tile is known to be sound.
+      // A newer epoch starts a new map with the tile's layout: GridMap's own limits apply (a
+      // cell size of 0.5 mm passed an older copy of them and then threw: fuzz_tile).
+      {"newer epoch, cell size below a millimetre",
+       [](TileMessage& t) {
+         t.epoch = t.epoch + 1;
+         t.cell_size = 0.0005f;
+       },
+       "map.cell_size must be in [0.001, 10] m"},
       {"newer epoch, bad payload",
        [](TileMessage& t) {
          t.epoch = t.epoch + 1;
@@ -293,7 +302,8 @@ TEST(MapReplica, MalformedDeltasAreRejectedWithAReasonAndChangeNothing) {
   const std::vector<Case> cases = {
       {"protocol", [](TileMessage& d) { d.protocol = 9; }, "protocol 9"},
       {"cells", [](TileMessage& d) { d.cells = 100; }, "cells 100"},
-      {"tile edge", [](TileMessage& d) { d.tile_edge = 63; }, "tile_edge 63"},
+      {"tile edge", [](TileMessage& d) { d.tile_edge = 63; },
+       "map.tile_edge must be a power of two in [8, 1024], got 63"},
       {"tile edge change", [](TileMessage& d) { d.tile_edge = 32; }, "differs"},
       {"cell size", [](TileMessage& d) { d.cell_size = std::nanf(""); }, "cell_size"},
       {"key", [](TileMessage& d) { d.ty = -5000000; }, "outside"},
@@ -336,6 +346,18 @@ TEST(MapReplica, MalformedSummariesAreRejectedWithAReasonAndChangeNothing) {
       {"tile count", [](MetaMessage& m) { m.tile_count = 4000000000u; }, "tile_count 4000000000"},
       {"tile edge change", [](MetaMessage& m) { m.tile_edge = 128; }, "differs"},
       {"cell size change", [](MetaMessage& m) { m.cell_size = 0.15f; }, "differs"},
+      {"newer epoch, cell size below a millimetre",
+       [](MetaMessage& m) {
+         m.epoch = m.epoch + 1;
+         m.cell_size = 0.0005f;
+       },
+       "map.cell_size must be in [0.001, 10] m"},
+      {"newer epoch, tile edge 2048",
+       [](MetaMessage& m) {
+         m.epoch = m.epoch + 1;
+         m.tile_edge = 2048;
+       },
+       "map.tile_edge must be a power of two in [8, 1024], got 2048"},
       {"newer epoch, absurd bounds",
        [](MetaMessage& m) {
          m.epoch = m.epoch + 1;

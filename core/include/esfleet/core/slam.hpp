@@ -87,8 +87,8 @@ struct SlamStep {
   bool loop_closed = false;     ///< a loop closure was accepted and the graph re-optimised
   bool recovery_tried = false;  ///< the recovery search ran (a weak match or a large motion)
   bool recovered = false;       ///< ... and its pose replaced the tracked one
-  bool withheld =
-      false;  ///< due for insertion but too weak a match (or a pose beyond any map): not written
+  /// Due for insertion but too weak a match (or a pose beyond any map): not written.
+  bool withheld = false;
   MapUpdateStats update;
   double search_ms = 0.0;  ///< wall time of the pose search (ES and polish)
   double update_ms = 0.0;  ///< wall time of the map update

@@ -75,6 +75,8 @@ class MapReplica {
   /// Checks layout fields shared by tiles and summaries (ranges, and equality with the current
   /// map when `against_map`); returns an error or "".
   std::string check_layout(float cell_size, std::uint32_t tile_edge, bool against_map) const;
+  /// The local config with the sender's cell size and tile edge (what reset() makes a map of).
+  GridMapConfig layout_config(float cell_size, std::uint32_t tile_edge) const;
   /// Starts (or restarts, on a newer epoch) the map with this layout.
   void reset(std::uint32_t epoch, float cell_size, int tile_edge);
 
