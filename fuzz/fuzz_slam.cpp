@@ -20,10 +20,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
-#include <numbers>
-#include <optional>
 #include <set>
-#include <string>
 #include <vector>
 
 #include "esfleet/core/slam.hpp"
