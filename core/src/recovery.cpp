@@ -1,12 +1,13 @@
 #include "esfleet/core/recovery.hpp"
 
 #include <algorithm>
-#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <numbers>
 #include <stdexcept>
 #include <string>
+
+#include "coarse_grid.hpp"
 
 namespace esfleet {
 
@@ -86,98 +87,15 @@ namespace {
 
 constexpr double kPi = std::numbers::pi;
 
-inline std::int32_t floor_div(std::int32_t a, std::int32_t b) {
-  return a >= 0 ? a / b : -((-a + b - 1) / b);
-}
-
-/// The map's cells as scores over a window (occupied: the map value, free: -free_penalty,
-/// unknown: 0), read from the map's tiles, and the same max-pooled into blocks of `factor` x
-/// `factor` cells aligned at multiples of `factor` (a copy: the coarse stage reads it most).
-class LocalWindow {
- public:
-  LocalWindow(const GridMap& map, std::int32_t x_min, std::int32_t y_min, std::int32_t x_max,
-              std::int32_t y_max, std::int32_t factor, float free_penalty)
-      : lookup_(map.lookup(0)),
-        free_penalty_(free_penalty),
-        shift_(std::countr_zero(static_cast<std::uint32_t>(factor))) {
-    bx0_ = floor_div(x_min, factor);
-    by0_ = floor_div(y_min, factor);
-    bw_ = floor_div(x_max, factor) - bx0_ + 1;
-    bh_ = floor_div(y_max, factor) - by0_ + 1;
-    x0_ = bx0_ * factor;
-    y0_ = by0_ * factor;
-    coarse_.assign(static_cast<std::size_t>(bw_) * static_cast<std::size_t>(bh_) + 1,
-                   -free_penalty);
-    coarse_.back() = 0.0f;  // outside the window: unknown
-    const std::int32_t w = bw_ * factor, h = bh_ * factor;
-    for (std::int32_t y = 0; y < h; ++y) {
-      float* brow = coarse_.data() + static_cast<std::size_t>(y / factor) * bw_;
-      for (std::int32_t x = 0; x < w; ++x) {
-        const float score = lookup_.score(x0_ + x, y0_ + y);
-        float& b = brow[x / factor];
-        b = std::max(b, value(score));
-        known_ |= score > 0.0f;
-      }
-    }
-  }
-  bool any_hit() const { return known_; }
-  /// Pooled value of the block holding level-0 cell (cx, cy); 0 outside.
-  float coarse(std::int32_t cx, std::int32_t cy) const {
-    // A shift, not a division: the factor is a power of two, and a cell left of the window
-    // (a negative difference) is outside either way.
-    const std::int32_t bx = (cx - x0_) >> shift_, by = (cy - y0_) >> shift_;
-    const bool inside = (cx >= x0_) & (cy >= y0_) & (bx < bw_) & (by < bh_);
-    return coarse_[inside ? static_cast<std::size_t>(by) * bw_ + bx : coarse_.size() - 1];
-  }
-  /// The value of level-0 cell (cx, cy) (the caller keeps to the window).
-  float fine(std::int32_t cx, std::int32_t cy) const { return value(lookup_.score(cx, cy)); }
-
- private:
-  /// Occupied: the map value; free: -free_penalty (an end point in free space speaks against
-  /// the pose); unknown: 0.
-  float value(float score) const {
-    return score > 0.0f ? score : (score == 0.0f ? -free_penalty_ : 0.0f);
-  }
-
-  GridMap::Lookup lookup_;
-  float free_penalty_;
-  int shift_;  ///< log2 of the pooling factor
-  std::int32_t x0_ = 0, y0_ = 0;
-  std::int32_t bx0_ = 0, by0_ = 0, bw_ = 0, bh_ = 0;
-  std::vector<float> coarse_;
-  bool known_ = false;
-};
+using coarse_grid::PooledWindow;
 
 inline std::int32_t floor_f(float v) {
   const auto i = static_cast<std::int32_t>(v);
   return i - static_cast<std::int32_t>(v < static_cast<float>(i));
 }
 
-struct Scored {
-  float score;
-  Pose2 pose;
-};
-
-/// The `keep` best distinct poses of `all` (sorted best first; ties by generation order).
-std::vector<Scored> best_distinct(std::vector<Scored> all, std::size_t keep, double dxy,
-                                  double dtheta) {
-  std::stable_sort(all.begin(), all.end(),
-                   [](const Scored& a, const Scored& b) { return a.score > b.score; });
-  std::vector<Scored> out;
-  for (const Scored& s : all) {
-    if (out.size() >= keep || !(s.score > 0.0f)) break;
-    bool near = false;
-    for (const Scored& o : out) {
-      if (std::hypot(s.pose.x - o.pose.x, s.pose.y - o.pose.y) < dxy &&
-          std::abs(normalize_angle(s.pose.theta - o.pose.theta)) < dtheta) {
-        near = true;
-        break;
-      }
-    }
-    if (!near) out.push_back(s);
-  }
-  return out;
-}
+using coarse_grid::best_distinct;
+using coarse_grid::Scored;
 
 /// The end points the coarse and fine stages score, in cell units (at most config.points of
 /// those within config.max_range, evenly strided; none when fewer than 8 are), and the same
@@ -227,7 +145,7 @@ CellPoints sample_points(const RecoveryConfig& config, const ScanPoints& points,
 
 /// Fine: the best of every cell and a third of the coarse heading step within `fxy` cells and
 /// one coarse heading step around the coarse pose `b`, scored at full resolution.
-Scored fine_best(const LocalWindow& window, CellPoints& pts, const Scored& b, int fxy,
+Scored fine_best(const PooledWindow& window, CellPoints& pts, const Scored& b, int fxy,
                  double step_theta, double cell_size) {
   const double inv_cell = 1.0 / cell_size;
   const auto fine = [&window](std::int32_t cx, std::int32_t cy) { return window.fine(cx, cy); };
@@ -356,8 +274,8 @@ RecoveryResult recover_pose(const RecoveryConfig& config, const TrackingConfig& 
   const std::int32_t x_max = std::min(floor_f(static_cast<float>(cx + reach)), tiles.max.x);
   const std::int32_t y_max = std::min(floor_f(static_cast<float>(cy + reach)), tiles.max.y);
   if (x_min > x_max || y_min > y_max) return out;  // nothing known in reach
-  const LocalWindow window(map, x_min, y_min, x_max, y_max, factor,
-                           static_cast<float>(config.free_penalty));
+  const PooledWindow window(map, x_min, y_min, x_max, y_max, factor,
+                            static_cast<float>(config.free_penalty));
   if (!window.any_hit()) return out;
 
   // Coarse: positions in steps of half a pooled block, headings that move an end point at the
@@ -376,26 +294,28 @@ RecoveryResult recover_pose(const RecoveryConfig& config, const TrackingConfig& 
   }
   const int th_lo = static_cast<int>(std::floor(lo / step_theta));
   const int th_hi = static_cast<int>(std::ceil(hi / step_theta));
-  const auto pooled = [&window](std::int32_t x, std::int32_t y) { return window.coarse(x, y); };
-  std::vector<Scored> coarse;
-  coarse.reserve(static_cast<std::size_t>((th_hi - th_lo + 1) * (2 * nxy + 1) * (2 * nxy + 1)));
+  const std::size_t side = static_cast<std::size_t>(2 * nxy + 1);
+  const std::size_t per_heading = side * side;
+  // Every sampled end point lies within `far` metres of the pose, whatever the heading.
+  const coarse_grid::GridScorer scorer(window, cx, cy, nxy, far * inv_cell + 1.0);
+  std::vector<float> coarse(static_cast<std::size_t>(th_hi - th_lo + 1) * per_heading);
   for (int it = th_lo; it <= th_hi; ++it) {
-    const double theta = normalize_angle(centre.theta + it * step_theta);
-    pts.rotate(theta);
-    for (int iy = -nxy; iy <= nxy; ++iy) {
-      const auto oy = static_cast<float>(cy + iy * step_xy * inv_cell);
-      for (int ix = -nxy; ix <= nxy; ++ix) {
-        const auto ox = static_cast<float>(cx + ix * step_xy * inv_cell);
-        coarse.push_back({pts.sum_at(ox, oy, pooled),
-                          {centre.x + ix * step_xy, centre.y + iy * step_xy, theta}});
-      }
-    }
+    pts.rotate(normalize_angle(centre.theta + it * step_theta));
+    scorer.score(pts.rx.data(), pts.ry.data(), n,
+                 coarse.data() + static_cast<std::size_t>(it - th_lo) * per_heading);
   }
+  // Index i: heading th_lo + i / per_heading, then row iy, then column ix, each from -nxy.
+  const auto pose_of = [&](std::size_t i) {
+    const auto it = th_lo + static_cast<int>(i / per_heading);
+    const auto iy = static_cast<int>(i % per_heading / side) - nxy;
+    const auto ix = static_cast<int>(i % side) - nxy;
+    return Pose2{centre.x + ix * step_xy, centre.y + iy * step_xy,
+                 normalize_angle(centre.theta + it * step_theta)};
+  };
   out.coarse_poses = static_cast<int>(coarse.size());
-  const std::vector<Scored> best =
-      best_distinct(std::move(coarse),
-                    static_cast<std::size_t>(std::max(config.candidates, config.more_candidates)),
-                    config.distinct_xy, deg_to_rad(config.distinct_theta_deg));
+  const std::vector<Scored> best = best_distinct(
+      coarse, static_cast<std::size_t>(std::max(config.candidates, config.more_candidates)),
+      config.distinct_xy, deg_to_rad(config.distinct_theta_deg), pose_of);
   if (best.empty()) return out;
 
   // Fine: each coarse pose of [first, last) searched again within one coarse step, best first.

@@ -1,0 +1,83 @@
+#include "coarse_grid.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace esfleet::coarse_grid {
+
+PooledWindow::PooledWindow(const GridMap& map, std::int32_t x_min, std::int32_t y_min,
+                           std::int32_t x_max, std::int32_t y_max, std::int32_t factor,
+                           float free_penalty)
+    : lookup_(map.lookup(0)), free_penalty_(free_penalty), factor_(factor) {
+  const std::int32_t bx0 = floor_div(x_min, factor);
+  const std::int32_t by0 = floor_div(y_min, factor);
+  bw_ = floor_div(x_max, factor) - bx0 + 1;
+  bh_ = floor_div(y_max, factor) - by0 + 1;
+  x0_ = bx0 * factor;
+  y0_ = by0 * factor;
+  coarse_.assign(static_cast<std::size_t>(bw_) * static_cast<std::size_t>(bh_) + 1, -free_penalty);
+  coarse_.back() = 0.0f;  // outside the window: unknown
+  const std::int32_t w = bw_ * factor, h = bh_ * factor;
+  for (std::int32_t y = 0; y < h; ++y) {
+    float* brow = coarse_.data() + static_cast<std::size_t>(y / factor) * bw_;
+    for (std::int32_t x = 0; x < w; ++x) {
+      const float score = lookup_.score(x0_ + x, y0_ + y);
+      float& b = brow[x / factor];
+      b = std::max(b, value(score));
+      known_ |= score > 0.0f;
+    }
+  }
+}
+
+GridScorer::GridScorer(const PooledWindow& window, double cx, double cy, int n, double radius)
+    : window_(window), cx_(cx), cy_(cy), n_(n), side_(static_cast<std::size_t>(2 * n + 1)) {
+  u_lo_ = half_block(cx - radius, window.x0()) - n;
+  u_hi_ = half_block(cx + radius, window.x0()) + n;
+  v_lo_ = half_block(cy - radius, window.y0()) - n;
+  v_hi_ = half_block(cy + radius, window.y0()) + n;
+  b_lo_ = floor_div(v_lo_, 2);
+  const std::int32_t b_hi = floor_div(v_hi_, 2);
+  width_ = static_cast<std::size_t>(u_hi_ - u_lo_ + 1);
+  rows_.resize(static_cast<std::size_t>(b_hi - b_lo_ + 1) * width_);
+  float* out = rows_.data();
+  for (std::int32_t b = b_lo_; b <= b_hi; ++b) {
+    for (std::int32_t u = u_lo_; u <= u_hi_; ++u) *out++ = window.block(floor_div(u, 2), b);
+  }
+}
+
+std::int32_t GridScorer::half_block(double c, std::int32_t origin) const {
+  // q = factor / 2 is a power of two (or 1/2): the division is exact.
+  const double q = 0.5 * window_.factor();
+  return static_cast<std::int32_t>(std::floor((c - origin) / q));
+}
+
+void GridScorer::score(const float* px, const float* py, std::size_t count, float* out) const {
+  const std::size_t side = side_;
+  std::fill(out, out + side * side, 0.0f);
+  for (std::size_t j = 0; j < count; ++j) {
+    // The half-block under end point j at grid position (-n, -n); grid step (ix, iy) moves it
+    // by (ix, iy) half-blocks, and half-block (u, v) lies in block (u / 2, v / 2).
+    const std::int32_t hx = half_block(cx_ + px[j], window_.x0()) - n_;
+    const std::int32_t hy = half_block(cy_ + py[j], window_.y0()) - n_;
+    const auto last = static_cast<std::int32_t>(side) - 1;
+    if (hx >= u_lo_ && hx + last <= u_hi_ && hy >= v_lo_ && hy + last <= v_hi_) {
+      const float* first = rows_.data() + static_cast<std::size_t>(hx - u_lo_);
+      for (std::size_t iy = 0; iy < side; ++iy) {
+        const std::int32_t b = floor_div(hy + static_cast<std::int32_t>(iy), 2) - b_lo_;
+        const float* row = first + static_cast<std::size_t>(b) * width_;
+        float* acc = out + iy * side;
+        for (std::size_t k = 0; k < side; ++k) acc[k] += row[k];
+      }
+    } else {
+      for (std::size_t iy = 0; iy < side; ++iy) {
+        const std::int32_t b = floor_div(hy + static_cast<std::int32_t>(iy), 2);
+        float* acc = out + iy * side;
+        for (std::size_t k = 0; k < side; ++k) {
+          acc[k] += window_.block(floor_div(hx + static_cast<std::int32_t>(k), 2), b);
+        }
+      }
+    }
+  }
+}
+
+}  // namespace esfleet::coarse_grid

@@ -1,0 +1,192 @@
+// The recovery search's coarse stage (core/src/coarse_grid.hpp, private to core): the pooled
+// window must be the maximum over each block of the cells' values, the grid scores must be the
+// sums the definition gives position by position (for every pooling factor the configuration
+// allows, end points near and far), and the best distinct poses those of a full sort.
+
+#include "coarse_grid.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <random>
+#include <vector>
+
+#include "esfleet/core/geometry.hpp"
+#include "synthetic_world.hpp"
+
+namespace esfleet::coarse_grid {
+namespace {
+
+using testing::asymmetric_room;
+using testing::map_of;
+
+constexpr float kFreePenalty = 0.5f;
+
+/// A cell's value by the definition: occupied its score, known free -free_penalty, unknown 0.
+float cell_value(const GridMap& map, std::int32_t cx, std::int32_t cy) {
+  const float s = map.lookup(0).score(cx, cy);
+  return s > 0.0f ? s : (s == 0.0f ? -kFreePenalty : 0.0f);
+}
+
+TEST(CoarseGrid, APooledBlockIsTheBestCellInItAndNothingOutsideTheWindow) {
+  const GridMap map = map_of(asymmetric_room(), 12, 8);
+  for (const std::int32_t factor : {1, 4, 16}) {
+    // A window that cuts through the room, not aligned to blocks.
+    const PooledWindow w(map, 37, -5, 173, 121, factor, kFreePenalty);
+    ASSERT_TRUE(w.any_hit()) << "factor " << factor;
+    EXPECT_EQ(w.x0() % factor, 0);
+    int checked = 0;
+    for (std::int32_t cy = -40; cy < 200; cy += 3) {
+      for (std::int32_t cx = 0; cx < 260; cx += 3) {
+        const std::int32_t bx = floor_div(cx, factor) * factor;
+        const std::int32_t by = floor_div(cy, factor) * factor;
+        const bool inside = bx + factor > 37 && bx <= 173 && by + factor > -5 && by <= 121;
+        float expected = inside ? -kFreePenalty : 0.0f;
+        for (std::int32_t y = by; inside && y < by + factor; ++y) {
+          for (std::int32_t x = bx; x < bx + factor; ++x) {
+            expected = std::max(expected, cell_value(map, x, y));
+          }
+        }
+        ASSERT_EQ(w.coarse(cx, cy), expected)
+            << "factor " << factor << " cell " << cx << ", " << cy;
+        ++checked;
+      }
+    }
+    EXPECT_GT(checked, 5000);
+  }
+}
+
+TEST(CoarseGrid, GridScoresAreTheSumsAtEachPosition) {
+  const GridMap map = map_of(asymmetric_room(), 12, 8);
+  const unsigned seed = 20261207;
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> centre_x(60.0, 180.0), centre_y(40.0, 120.0);
+  for (const std::int32_t factor : {1, 4, 16}) {
+    for (int trial = 0; trial < 4; ++trial) {
+      const double cx = centre_x(rng), cy = centre_y(rng);
+      const int n = trial == 0 ? 0 : 7 + trial;
+      const double radius = 90.0;
+      const auto reach = static_cast<std::int32_t>(radius + factor * (n + 2));
+      const PooledWindow w(map, static_cast<std::int32_t>(cx) - reach,
+                           static_cast<std::int32_t>(cy) - reach,
+                           static_cast<std::int32_t>(cx) + reach,
+                           static_cast<std::int32_t>(cy) + reach, factor, kFreePenalty);
+      const GridScorer scorer(w, cx, cy, n, radius);
+      // End points within the radius, some on whole and half cells, and a few beyond it.
+      std::vector<float> px, py;
+      std::uniform_real_distribution<double> angle(-3.14159, 3.14159), range(0.5, radius - 1.0);
+      for (int j = 0; j < 150; ++j) {
+        const double a = angle(rng);
+        const double r = j % 30 == 29 ? radius + 40.0 : range(rng);
+        double x = r * std::cos(a), y = r * std::sin(a);
+        if (j % 7 == 0) x = std::round(x * 2.0) / 2.0;
+        px.push_back(static_cast<float>(x));
+        py.push_back(static_cast<float>(y));
+      }
+      const std::size_t side = scorer.side();
+      ASSERT_EQ(side, static_cast<std::size_t>(2 * n + 1));
+      std::vector<float> got(side * side, -1.0f);
+      scorer.score(px.data(), py.data(), px.size(), got.data());
+      const double q = 0.5 * factor;
+      for (int iy = -n; iy <= n; ++iy) {
+        for (int ix = -n; ix <= n; ++ix) {
+          float expected = 0.0f;
+          for (std::size_t j = 0; j < px.size(); ++j) {
+            expected += w.coarse(static_cast<std::int32_t>(std::floor(cx + q * ix + px[j])),
+                                 static_cast<std::int32_t>(std::floor(cy + q * iy + py[j])));
+          }
+          ASSERT_EQ(got[static_cast<std::size_t>((iy + n) * static_cast<int>(side) + ix + n)],
+                    expected)
+              << "seed " << seed << " factor " << factor << " trial " << trial << " at " << ix
+              << ", " << iy;
+        }
+      }
+    }
+  }
+}
+
+/// The definition: every pose sorted by score (stable: ties by index), then taken greedily.
+std::vector<Scored> reference_best_distinct(const std::vector<float>& scores,
+                                            const std::vector<Pose2>& poses, std::size_t keep,
+                                            double dxy, double dtheta) {
+  std::vector<Scored> all;
+  for (std::size_t i = 0; i < scores.size(); ++i) all.push_back({scores[i], poses[i]});
+  std::stable_sort(all.begin(), all.end(),
+                   [](const Scored& a, const Scored& b) { return a.score > b.score; });
+  std::vector<Scored> out;
+  for (const Scored& s : all) {
+    if (out.size() >= keep || !(s.score > 0.0f)) break;
+    const bool near = std::any_of(out.begin(), out.end(), [&](const Scored& o) {
+      return std::hypot(s.pose.x - o.pose.x, s.pose.y - o.pose.y) < dxy &&
+             std::abs(normalize_angle(s.pose.theta - o.pose.theta)) < dtheta;
+    });
+    if (!near) out.push_back(s);
+  }
+  return out;
+}
+
+TEST(CoarseGrid, BestDistinctPosesAreThoseOfAFullSort) {
+  const unsigned seed = 7;
+  std::mt19937 rng(seed);
+  // A grid of 41 x 41 positions 0.1 m apart at 60 headings 3 deg apart.
+  const int side = 41, headings = 60;
+  std::vector<Pose2> poses;
+  for (int it = 0; it < headings; ++it) {
+    for (int iy = 0; iy < side; ++iy) {
+      for (int ix = 0; ix < side; ++ix) {
+        poses.push_back({0.1 * ix, 0.1 * iy, normalize_angle(deg_to_rad(3.0 * it - 90.0))});
+      }
+    }
+  }
+  const auto pose_of = [&poses](std::size_t i) { return poses[i]; };
+  // Scores as a search gives them: highest near a few poses and falling off around each, so
+  // the best hundreds of scores are a handful of distinct poses (rounded: ties); and random
+  // scores, with few levels (many ties) or many, and few of them positive or all.
+  std::vector<std::vector<float>> landscapes;
+  for (const float step : {0.01f, 0.5f}) {
+    std::vector<float> scores(poses.size());
+    for (std::size_t i = 0; i < poses.size(); ++i) {
+      double best = -1.0;
+      for (const Pose2& peak :
+           {Pose2{1.0, 2.0, 0.3}, Pose2{3.0, 1.0, -1.0}, Pose2{2.5, 3.5, 1.2}}) {
+        const double d = std::hypot(poses[i].x - peak.x, poses[i].y - peak.y) +
+                         0.5 * std::abs(normalize_angle(poses[i].theta - peak.theta));
+        best = std::max(best, 10.0 - 4.0 * d);
+      }
+      scores[i] = std::round(static_cast<float>(best) / step) * step;
+    }
+    landscapes.push_back(scores);
+  }
+  for (const int levels : {4, 40, 4000}) {
+    for (const double positive : {0.002, 0.3, 1.0}) {
+      std::uniform_int_distribution<int> level(1, levels);
+      std::uniform_real_distribution<double> u(0.0, 1.0);
+      std::vector<float> scores(poses.size());
+      for (float& s : scores) s = u(rng) < positive ? static_cast<float>(level(rng)) : -1.0f;
+      landscapes.push_back(scores);
+    }
+  }
+  int compared = 0;
+  for (std::size_t l = 0; l < landscapes.size(); ++l) {
+    const std::vector<float>& scores = landscapes[l];
+    for (const std::size_t keep : {1, 8, 64, 600}) {
+      const std::vector<Scored> got = best_distinct(scores, keep, 0.3, deg_to_rad(5.0), pose_of);
+      const std::vector<Scored> want =
+          reference_best_distinct(scores, poses, keep, 0.3, deg_to_rad(5.0));
+      ASSERT_EQ(got.size(), want.size()) << "seed " << seed << " scores " << l << " keep " << keep;
+      for (std::size_t k = 0; k < got.size(); ++k) {
+        ASSERT_EQ(got[k].score, want[k].score) << "seed " << seed << " rank " << k;
+        ASSERT_EQ(got[k].pose.x, want[k].pose.x) << "seed " << seed << " rank " << k;
+        ASSERT_EQ(got[k].pose.y, want[k].pose.y) << "seed " << seed << " rank " << k;
+        ASSERT_EQ(got[k].pose.theta, want[k].pose.theta) << "seed " << seed << " rank " << k;
+      }
+      compared += static_cast<int>(got.size());
+    }
+  }
+  EXPECT_GT(compared, 2000);
+}
+
+}  // namespace
+}  // namespace esfleet::coarse_grid
