@@ -18,13 +18,45 @@ PooledWindow::PooledWindow(const GridMap& map, std::int32_t x_min, std::int32_t 
   coarse_.assign(static_cast<std::size_t>(bw_) * static_cast<std::size_t>(bh_) + 1, -free_penalty);
   coarse_.back() = 0.0f;  // outside the window: unknown
   const std::int32_t w = bw_ * factor, h = bh_ * factor;
+  const GridMap::Lookup::Addressing a = lookup_.addressing();
   for (std::int32_t y = 0; y < h; ++y) {
     float* brow = coarse_.data() + static_cast<std::size_t>(y / factor) * bw_;
-    for (std::int32_t x = 0; x < w; ++x) {
-      const float score = lookup_.score(x0_ + x, y0_ + y);
-      float& b = brow[x / factor];
-      b = std::max(b, value(score));
-      known_ |= score > 0.0f;
+    // A row of the window is read a tile row at a time.
+    for (std::int32_t x = 0; x < w;) {
+      const std::int32_t cx = x0_ + x, cy = y0_ + y;
+      const std::int32_t span = std::min(a.mask + 1 - (cx & a.mask), w - x);
+      const float* cells = lookup_.tile(a.slot(cx, cy)) + a.offset(cx, cy);
+      for (std::int32_t k = 0; k < span; ++k, ++x) {
+        const float score = cells[k];
+        float& b = brow[x / factor];
+        b = std::max(b, value(score));
+        known_ |= score > 0.0f;
+      }
+    }
+  }
+}
+
+void PooledWindow::add_fine_row(std::int32_t cx, std::int32_t cy, std::size_t count,
+                                float* acc) const {
+  const GridMap::Lookup::Addressing a = lookup_.addressing();
+  if (static_cast<std::size_t>(cx & a.mask) + count <= static_cast<std::size_t>(a.mask) + 1) {
+    // Within one tile row: contiguous.
+    const float* cells = lookup_.tile(a.slot(cx, cy)) + a.offset(cx, cy);
+    for (std::size_t k = 0; k < count; ++k) acc[k] += value(cells[k]);
+  } else {
+    for (std::size_t k = 0; k < count; ++k) acc[k] += fine(cx + static_cast<std::int32_t>(k), cy);
+  }
+}
+
+void fine_sums(const PooledWindow& window, double cx, double cy, const float* px, const float* py,
+               std::size_t count, int n, float* out) {
+  const auto side = static_cast<std::size_t>(2 * n + 1);
+  std::fill(out, out + side * side, 0.0f);
+  for (std::size_t j = 0; j < count; ++j) {
+    const auto x = static_cast<std::int32_t>(std::floor(cx + px[j])) - n;
+    const auto y = static_cast<std::int32_t>(std::floor(cy + py[j])) - n;
+    for (std::size_t iy = 0; iy < side; ++iy) {
+      window.add_fine_row(x, y + static_cast<std::int32_t>(iy), side, out + iy * side);
     }
   }
 }

@@ -49,8 +49,10 @@ class PooledWindow {
   float coarse(std::int32_t cx, std::int32_t cy) const {
     return block(floor_div(cx - x0_, factor_), floor_div(cy - y0_, factor_));
   }
-  /// The value of level-0 cell (cx, cy) (the caller keeps to the window).
+  /// The value of level-0 cell (cx, cy), read from the map (anywhere).
   float fine(std::int32_t cx, std::int32_t cy) const { return value(lookup_.score(cx, cy)); }
+  /// Adds fine(cx + k, cy) to acc[k] for k in [0, count).
+  void add_fine_row(std::int32_t cx, std::int32_t cy, std::size_t count, float* acc) const;
 
  private:
   float value(float score) const {
@@ -65,6 +67,13 @@ class PooledWindow {
   std::vector<float> coarse_;  ///< bw_ x bh_ blocks, then one 0 for outside
   bool known_ = false;
 };
+
+/// out[(iy + n) * (2n + 1) + ix + n] = the sum over the end points j, in order from 0.0f, of
+/// window.fine(floor(cx + px[j]) + ix, floor(cy + py[j]) + iy), for ix and iy in [-n, n]: the
+/// scores of the positions (cx + ix, cy + iy) at full resolution, a row of cells per end point
+/// and grid row.
+void fine_sums(const PooledWindow& window, double cx, double cy, const float* px, const float* py,
+               std::size_t count, int n, float* out);
 
 /// Scores of the positions (cx + q ix, cy + q iy), ix and iy in [-n, n], q = factor / 2 cells
 /// (cell coordinates, level 0), for end points within `radius` cells of (0, 0).
@@ -116,8 +125,11 @@ std::vector<Scored> best_distinct(const std::vector<float>& scores, std::size_t 
   // pass that has not reads 4 times as many, until it has read them all.
   for (std::size_t m = std::min(order.size(), std::max<std::size_t>(256, 8 * keep));;
        m = std::min(order.size(), 4 * m)) {
-    std::partial_sort(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(m), order.end(),
-                      better);
+    // The best m in order (ties by index: the order is total, so these are the m a full sort
+    // puts first).
+    const auto mid = order.begin() + static_cast<std::ptrdiff_t>(m);
+    if (mid != order.end()) std::nth_element(order.begin(), mid, order.end(), better);
+    std::sort(order.begin(), mid, better);
     out.clear();
     for (std::size_t r = 0; r < m && out.size() < keep; ++r) {
       const Scored s{scores[order[r]], pose_of(order[r])};

@@ -111,16 +111,6 @@ struct CellPoints {
       ry[j] = s * x[j] + c * y[j];
     }
   }
-  /// The sum of cell_value(cx, cy) over the cells of the rotated points placed at (ox, oy).
-  template <class CellValue>
-  float sum_at(float ox, float oy, CellValue cell_value) const {
-    const float* px = rx.data();
-    const float* py = ry.data();
-    const std::size_t n = rx.size();
-    float sum = 0.0f;
-    for (std::size_t j = 0; j < n; ++j) sum += cell_value(floor_f(ox + px[j]), floor_f(oy + py[j]));
-    return sum;
-  }
 };
 
 CellPoints sample_points(const RecoveryConfig& config, const ScanPoints& points, double inv_cell) {
@@ -148,17 +138,21 @@ CellPoints sample_points(const RecoveryConfig& config, const ScanPoints& points,
 Scored fine_best(const PooledWindow& window, CellPoints& pts, const Scored& b, int fxy,
                  double step_theta, double cell_size) {
   const double inv_cell = 1.0 / cell_size;
-  const auto fine = [&window](std::int32_t cx, std::int32_t cy) { return window.fine(cx, cy); };
+  const auto side = static_cast<std::size_t>(2 * fxy + 1);
+  std::vector<float> sums(side * side);
   Scored top{-1.0f, b.pose};
   for (int it = -3; it <= 3; ++it) {
     const double theta = normalize_angle(b.pose.theta + it * step_theta / 3.0);
     pts.rotate(theta);
+    coarse_grid::fine_sums(window, b.pose.x * inv_cell, b.pose.y * inv_cell, pts.rx.data(),
+                           pts.ry.data(), pts.rx.size(), fxy, sums.data());
     for (int iy = -fxy; iy <= fxy; ++iy) {
       for (int ix = -fxy; ix <= fxy; ++ix) {
-        const Pose2 p{b.pose.x + ix * cell_size, b.pose.y + iy * cell_size, theta};
-        const float sum = pts.sum_at(static_cast<float>(p.x * inv_cell),
-                                     static_cast<float>(p.y * inv_cell), fine);
-        if (sum > top.score) top = {sum, p};
+        const float sum =
+            sums[static_cast<std::size_t>(iy + fxy) * side + static_cast<std::size_t>(ix + fxy)];
+        if (sum > top.score) {
+          top = {sum, {b.pose.x + ix * cell_size, b.pose.y + iy * cell_size, theta}};
+        }
       }
     }
   }

@@ -1,7 +1,8 @@
 // The recovery search's coarse stage (core/src/coarse_grid.hpp, private to core): the pooled
-// window must be the maximum over each block of the cells' values, the grid scores must be the
-// sums the definition gives position by position (for every pooling factor the configuration
-// allows, end points near and far), and the best distinct poses those of a full sort.
+// window must be the maximum over each block of the cells' values, the grid scores and the
+// full-resolution sums must be the sums the definition gives position by position (for every
+// pooling factor the configuration allows, end points near and far, rows across tiles), and the
+// best distinct poses those of a full sort.
 
 #include "coarse_grid.hpp"
 
@@ -105,6 +106,45 @@ TEST(CoarseGrid, GridScoresAreTheSumsAtEachPosition) {
       }
     }
   }
+}
+
+TEST(CoarseGrid, FineSumsAreTheSumsAtEachCellAcrossTiles) {
+  const GridMap map = map_of(asymmetric_room(), 12, 8);  // 64-cell tiles: rows cross them
+  const PooledWindow w(map, 0, 0, 250, 170, 4, kFreePenalty);
+  const unsigned seed = 11;
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> centre_x(40.0, 200.0), centre_y(30.0, 130.0);
+  std::uniform_real_distribution<double> angle(-3.14159, 3.14159), range(0.5, 80.0);
+  int crossing = 0;
+  for (const int n : {0, 2, 9}) {
+    for (int trial = 0; trial < 5; ++trial) {
+      const double cx = centre_x(rng), cy = centre_y(rng);
+      std::vector<float> px, py;
+      for (int j = 0; j < 120; ++j) {
+        const double a = angle(rng), r = range(rng);
+        px.push_back(static_cast<float>(r * std::cos(a)));
+        py.push_back(static_cast<float>(r * std::sin(a)));
+        const auto x = static_cast<std::int32_t>(std::floor(cx + px.back()));
+        crossing += (x - n) / 64 != (x + n) / 64;
+      }
+      const auto side = static_cast<std::size_t>(2 * n + 1);
+      std::vector<float> got(side * side, -1.0f);
+      fine_sums(w, cx, cy, px.data(), py.data(), px.size(), n, got.data());
+      for (int iy = -n; iy <= n; ++iy) {
+        for (int ix = -n; ix <= n; ++ix) {
+          float expected = 0.0f;
+          for (std::size_t j = 0; j < px.size(); ++j) {
+            expected += cell_value(map, static_cast<std::int32_t>(std::floor(cx + ix + px[j])),
+                                   static_cast<std::int32_t>(std::floor(cy + iy + py[j])));
+          }
+          ASSERT_EQ(got[static_cast<std::size_t>(iy + n) * side + static_cast<std::size_t>(ix + n)],
+                    expected)
+              << "seed " << seed << " n " << n << " trial " << trial << " at " << ix << ", " << iy;
+        }
+      }
+    }
+  }
+  EXPECT_GT(crossing, 20);  // rows across a tile edge were read
 }
 
 /// The definition: every pose sorted by score (stable: ties by index), then taken greedily.
