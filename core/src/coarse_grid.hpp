@@ -102,6 +102,7 @@ class GridScorer {
   std::vector<float> rows_;  ///< block rows b_lo_.., each the blocks of columns u_lo_..u_hi_
 };
 
+/// A pose and its score (coarse or fine).
 struct Scored {
   float score;
   Pose2 pose;
