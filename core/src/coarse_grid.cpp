@@ -61,12 +61,15 @@ void fine_sums(const PooledWindow& window, double cx, double cy, const float* px
   }
 }
 
-GridScorer::GridScorer(const PooledWindow& window, double cx, double cy, int n, double radius)
+GridScorer::GridScorer(const PooledWindow& window, double cx, double cy, int n)
     : window_(window), cx_(cx), cy_(cy), n_(n), side_(static_cast<std::size_t>(2 * n + 1)) {
-  u_lo_ = half_block(cx - radius, window.x0()) - n;
-  u_hi_ = half_block(cx + radius, window.x0()) + n;
-  v_lo_ = half_block(cy - radius, window.y0()) - n;
-  v_hi_ = half_block(cy + radius, window.y0()) + n;
+  // An end point's run of 2n + 1 half-blocks that meets the window (half-blocks [0, 2 bw))
+  // lies within it and 2n around it.
+  const std::int32_t pad = 2 * n;
+  u_lo_ = -pad;
+  u_hi_ = 2 * window.blocks_x() - 1 + pad;
+  v_lo_ = -pad;
+  v_hi_ = 2 * window.blocks_y() - 1 + pad;
   b_lo_ = floor_div(v_lo_, 2);
   const std::int32_t b_hi = floor_div(v_hi_, 2);
   width_ = static_cast<std::size_t>(u_hi_ - u_lo_ + 1);
@@ -77,37 +80,26 @@ GridScorer::GridScorer(const PooledWindow& window, double cx, double cy, int n, 
   }
 }
 
-std::int32_t GridScorer::half_block(double c, std::int32_t origin) const {
-  // q = factor / 2 is a power of two (or 1/2): the division is exact.
-  const double q = 0.5 * window_.factor();
-  return static_cast<std::int32_t>(std::floor((c - origin) / q));
-}
-
 void GridScorer::score(const float* px, const float* py, std::size_t count, float* out) const {
   const std::size_t side = side_;
   std::fill(out, out + side * side, 0.0f);
   for (std::size_t j = 0; j < count; ++j) {
     // The half-block under end point j at grid position (-n, -n); grid step (ix, iy) moves it
     // by (ix, iy) half-blocks, and half-block (u, v) lies in block (u / 2, v / 2).
-    const std::int32_t hx = half_block(cx_ + px[j], window_.x0()) - n_;
-    const std::int32_t hy = half_block(cy_ + py[j], window_.y0()) - n_;
-    const auto last = static_cast<std::int32_t>(side) - 1;
-    if (hx >= u_lo_ && hx + last <= u_hi_ && hy >= v_lo_ && hy + last <= v_hi_) {
-      const float* first = rows_.data() + static_cast<std::size_t>(hx - u_lo_);
-      for (std::size_t iy = 0; iy < side; ++iy) {
-        const std::int32_t b = floor_div(hy + static_cast<std::int32_t>(iy), 2) - b_lo_;
-        const float* row = first + static_cast<std::size_t>(b) * width_;
-        float* acc = out + iy * side;
-        for (std::size_t k = 0; k < side; ++k) acc[k] += row[k];
-      }
-    } else {
-      for (std::size_t iy = 0; iy < side; ++iy) {
-        const std::int32_t b = floor_div(hy + static_cast<std::int32_t>(iy), 2);
-        float* acc = out + iy * side;
-        for (std::size_t k = 0; k < side; ++k) {
-          acc[k] += window_.block(floor_div(hx + static_cast<std::int32_t>(k), 2), b);
-        }
-      }
+    const double ax = (cx_ + px[j] - window_.x0()) / (0.5 * window_.factor());
+    const double ay = (cy_ + py[j] - window_.y0()) / (0.5 * window_.factor());
+    // A run that stays outside the window (or a coordinate too large for an int): only 0s.
+    if (!(ax >= u_lo_ + n_ && ax < u_hi_ - n_ + 1.0 && ay >= v_lo_ + n_ && ay < v_hi_ - n_ + 1.0)) {
+      continue;
+    }
+    const std::int32_t hx = static_cast<std::int32_t>(std::floor(ax)) - n_;
+    const std::int32_t hy = static_cast<std::int32_t>(std::floor(ay)) - n_;
+    const float* first = rows_.data() + static_cast<std::size_t>(hx - u_lo_);
+    for (std::size_t iy = 0; iy < side; ++iy) {
+      const std::int32_t b = floor_div(hy + static_cast<std::int32_t>(iy), 2) - b_lo_;
+      const float* row = first + static_cast<std::size_t>(b) * width_;
+      float* acc = out + iy * side;
+      for (std::size_t k = 0; k < side; ++k) acc[k] += row[k];
     }
   }
 }

@@ -35,6 +35,9 @@ class PooledWindow {
                std::int32_t y_max, std::int32_t factor, float free_penalty);
   bool any_hit() const { return known_; }
   std::int32_t factor() const { return factor_; }
+  /// The window's size in blocks.
+  std::int32_t blocks_x() const { return bw_; }
+  std::int32_t blocks_y() const { return bh_; }
   /// The first cell of the window (a multiple of the factor).
   std::int32_t x0() const { return x0_; }
   std::int32_t y0() const { return y0_; }
@@ -76,27 +79,26 @@ void fine_sums(const PooledWindow& window, double cx, double cy, const float* px
                std::size_t count, int n, float* out);
 
 /// Scores of the positions (cx + q ix, cy + q iy), ix and iy in [-n, n], q = factor / 2 cells
-/// (cell coordinates, level 0), for end points within `radius` cells of (0, 0).
+/// (cell coordinates, level 0). Its copy of the pooled blocks covers the window and 2n
+/// half-blocks around it, whatever the end points' range.
 class GridScorer {
  public:
-  GridScorer(const PooledWindow& window, double cx, double cy, int n, double radius);
+  GridScorer(const PooledWindow& window, double cx, double cy, int n);
   /// The side of the grid, 2n + 1.
   std::size_t side() const { return side_; }
   /// out[(iy + n) * side() + ix + n] = the sum over the end points j, in order from 0.0f, of
-  /// window.coarse(floor(cx + q ix + px[j]), floor(cy + q iy + py[j])). An end point farther
-  /// than the radius is scored position by position (the same sums).
+  /// window.coarse(floor(cx + q ix + px[j]), floor(cy + q iy + py[j])). An end point that
+  /// stays outside the window at every position adds nothing (its 0s are left out: adding
+  /// +0.0f changes no sum started at +0.0f).
   void score(const float* px, const float* py, std::size_t count, float* out) const;
 
  private:
-  /// The half-block column (x) or row (y) of coordinate c: floor((c - origin) / q).
-  std::int32_t half_block(double c, std::int32_t origin) const;
-
   const PooledWindow& window_;
   double cx_, cy_;
   int n_;
   std::size_t side_;
   std::int32_t u_lo_ = 0, u_hi_ = 0;  ///< half-block columns the copy holds
-  std::int32_t v_lo_ = 0, v_hi_ = 0;  ///< half-block rows the fast path may reach
+  std::int32_t v_lo_ = 0, v_hi_ = 0;  ///< half-block rows it holds
   std::int32_t b_lo_ = 0;             ///< the copy's first block row
   std::size_t width_ = 0;
   std::vector<float> rows_;  ///< block rows b_lo_.., each the blocks of columns u_lo_..u_hi_

@@ -290,8 +290,7 @@ RecoveryResult recover_pose(const RecoveryConfig& config, const TrackingConfig& 
   const int th_hi = static_cast<int>(std::ceil(hi / step_theta));
   const std::size_t side = static_cast<std::size_t>(2 * nxy + 1);
   const std::size_t per_heading = side * side;
-  // Every sampled end point lies within `far` metres of the pose, whatever the heading.
-  const coarse_grid::GridScorer scorer(window, cx, cy, nxy, far * inv_cell + 1.0);
+  const coarse_grid::GridScorer scorer(window, cx, cy, nxy);
   std::vector<float> coarse(static_cast<std::size_t>(th_hi - th_lo + 1) * per_heading);
   for (int it = th_lo; it <= th_hi; ++it) {
     pts.rotate(normalize_angle(centre.theta + it * step_theta));

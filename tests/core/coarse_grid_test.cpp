@@ -1,8 +1,8 @@
 // The recovery search's coarse stage (core/src/coarse_grid.hpp, private to core): the pooled
 // window must be the maximum over each block of the cells' values, the grid scores and the
 // full-resolution sums must be the sums the definition gives position by position (for every
-// pooling factor the configuration allows, end points near and far, rows across tiles), and the
-// best distinct poses those of a full sort.
+// pooling factor the configuration allows, end points near, far and outside the window, rows
+// across tiles), and the best distinct poses those of a full sort.
 
 #include "coarse_grid.hpp"
 
@@ -29,6 +29,12 @@ constexpr float kFreePenalty = 0.5f;
 float cell_value(const GridMap& map, std::int32_t cx, std::int32_t cy) {
   const float s = map.lookup(0).score(cx, cy);
   return s > 0.0f ? s : (s == 0.0f ? -kFreePenalty : 0.0f);
+}
+
+/// The cell holding coordinate v (cells), one far outside any window for a coordinate an
+/// int32 cannot hold.
+std::int32_t cell_of(double v) {
+  return static_cast<std::int32_t>(std::floor(std::clamp(v, -1e9, 1e9)));
 }
 
 TEST(CoarseGrid, APooledBlockIsTheBestCellInItAndNothingOutsideTheWindow) {
@@ -68,14 +74,15 @@ TEST(CoarseGrid, GridScoresAreTheSumsAtEachPosition) {
     for (int trial = 0; trial < 4; ++trial) {
       const double cx = centre_x(rng), cy = centre_y(rng);
       const int n = trial == 0 ? 0 : 7 + trial;
-      const double radius = 90.0;
+      const double radius = 30.0;  // the window cuts through the room: its edges are known
       const auto reach = static_cast<std::int32_t>(radius + factor * (n + 2));
       const PooledWindow w(map, static_cast<std::int32_t>(cx) - reach,
                            static_cast<std::int32_t>(cy) - reach,
                            static_cast<std::int32_t>(cx) + reach,
                            static_cast<std::int32_t>(cy) + reach, factor, kFreePenalty);
-      const GridScorer scorer(w, cx, cy, n, radius);
-      // End points within the radius, some on whole and half cells, and a few beyond it.
+      const GridScorer scorer(w, cx, cy, n);
+      // End points within the radius, some on whole and half cells; a few beyond it, partly
+      // outside the window; one far outside and one a int cannot hold.
       std::vector<float> px, py;
       std::uniform_real_distribution<double> angle(-3.14159, 3.14159), range(0.5, radius - 1.0);
       for (int j = 0; j < 150; ++j) {
@@ -86,6 +93,16 @@ TEST(CoarseGrid, GridScoresAreTheSumsAtEachPosition) {
         px.push_back(static_cast<float>(x));
         py.push_back(static_cast<float>(y));
       }
+      // Across each edge of the window: in, partly in at some positions, out.
+      for (double t = 0.0; t < factor * (n + 3) + 12.0; t += 0.5 * factor + 0.7) {
+        const float d = static_cast<float>(radius + t), s = static_cast<float>(0.3 * t);
+        px.insert(px.end(), {d, -d, s, -s});
+        py.insert(py.end(), {s, -s, d, -d});
+      }
+      px.push_back(5000.0f);
+      py.push_back(-20.0f);
+      px.push_back(3e9f);
+      py.push_back(-3e9f);
       const std::size_t side = scorer.side();
       ASSERT_EQ(side, static_cast<std::size_t>(2 * n + 1));
       std::vector<float> got(side * side, -1.0f);
@@ -95,8 +112,7 @@ TEST(CoarseGrid, GridScoresAreTheSumsAtEachPosition) {
         for (int ix = -n; ix <= n; ++ix) {
           float expected = 0.0f;
           for (std::size_t j = 0; j < px.size(); ++j) {
-            expected += w.coarse(static_cast<std::int32_t>(std::floor(cx + q * ix + px[j])),
-                                 static_cast<std::int32_t>(std::floor(cy + q * iy + py[j])));
+            expected += w.coarse(cell_of(cx + q * ix + px[j]), cell_of(cy + q * iy + py[j]));
           }
           ASSERT_EQ(got[static_cast<std::size_t>((iy + n) * static_cast<int>(side) + ix + n)],
                     expected)
