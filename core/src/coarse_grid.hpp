@@ -110,32 +110,85 @@ struct Scored {
   Pose2 pose;
 };
 
-/// The `keep` best distinct poses of the scored grid (best first; ties by index): the greedy
-/// pass over all scores sorted, on the fewest of the best that decide it. A pose is distinct
-/// when no pose taken before lies within `dxy` and `dtheta` of it; only positive scores count.
-template <class PoseOf>
-std::vector<Scored> best_distinct(const std::vector<float>& scores, std::size_t keep, double dxy,
-                                  double dtheta, PoseOf pose_of) {
-  std::vector<std::uint32_t> order;
-  for (std::size_t i = 0; i < scores.size(); ++i) {
-    if (scores[i] > 0.0f) order.push_back(static_cast<std::uint32_t>(i));
-  }
-  const auto better = [&scores](std::uint32_t a, std::uint32_t b) {
-    return scores[a] > scores[b] || (scores[a] == scores[b] && a < b);
+/// The best positive scores offered, by score and then by index (lower first), in bounded
+/// memory: once `capacity` are kept, a score that ranks below the worst kept is dropped, and
+/// the kept ones are cut back to `capacity` whenever they reach twice that. What is kept is
+/// always every offered score that ranks at or above the worst kept: a prefix of all of them
+/// sorted.
+class BestScores {
+ public:
+  struct Entry {
+    float score;
+    std::uint64_t index;
   };
+  explicit BestScores(std::size_t capacity) : capacity_(std::max<std::size_t>(1, capacity)) {
+    kept_.reserve(2 * capacity_);
+  }
+  /// Offers scores[k] with index first + k, k in [0, count), in any order of calls.
+  void add(const float* scores, std::size_t count, std::uint64_t first) {
+    for (std::size_t k = 0; k < count; ++k) {
+      const float s = scores[k];
+      if (!(s > bar_)) {
+        if (!(s > 0.0f)) continue;
+        if (!(s == bar_ && capped_ && first + k < bar_index_)) {
+          dropped_ = true;
+          continue;
+        }
+      }
+      kept_.push_back({s, first + k});
+      if (kept_.size() == 2 * capacity_) cut();
+    }
+  }
+  /// How many are kept (less than twice the capacity).
+  std::size_t size() const { return kept_.size(); }
+  /// Whether a positive score offered is not kept.
+  bool dropped() const { return dropped_; }
+  /// The kept scores, best first.
+  std::vector<Entry> sorted() const {
+    std::vector<Entry> out = kept_;
+    std::sort(out.begin(), out.end(), better);
+    return out;
+  }
+  static bool better(const Entry& a, const Entry& b) {
+    return a.score > b.score || (a.score == b.score && a.index < b.index);
+  }
+
+ private:
+  void cut() {
+    const auto last = kept_.begin() + static_cast<std::ptrdiff_t>(capacity_ - 1);
+    std::nth_element(kept_.begin(), last, kept_.end(), better);
+    bar_ = last->score;
+    bar_index_ = last->index;
+    kept_.resize(capacity_);
+    capped_ = true;
+    dropped_ = true;
+  }
+
+  std::size_t capacity_;
+  std::vector<Entry> kept_;
+  float bar_ = 0.0f;  ///< scores not above it are kept only when they rank above the worst kept
+  std::uint64_t bar_index_ = 0;
+  bool capped_ = false;
+  bool dropped_ = false;
+};
+
+/// The `keep` best distinct poses of a scored grid (best first; ties by index): the greedy pass
+/// over all positive scores sorted. A pose is distinct when no pose taken before lies within
+/// `dxy` and `dtheta` of it. `score_all(BestScores&)` offers every score of the grid; it is
+/// called again with 4 times the capacity while the best kept do not decide the pass (fewer
+/// than `keep` distinct among them, and some dropped), so the memory follows how many decide
+/// it, not the grid's size.
+template <class ScoreAll, class PoseOf>
+std::vector<Scored> best_distinct(ScoreAll score_all, std::size_t keep, double dxy, double dtheta,
+                                  PoseOf pose_of, std::size_t capacity) {
   std::vector<Scored> out;
-  // The greedy pass over the best m decides as over all of them once it has `keep` poses; a
-  // pass that has not reads 4 times as many, until it has read them all.
-  for (std::size_t m = std::min(order.size(), std::max<std::size_t>(256, 8 * keep));;
-       m = std::min(order.size(), 4 * m)) {
-    // The best m in order (ties by index: the order is total, so these are the m a full sort
-    // puts first).
-    const auto mid = order.begin() + static_cast<std::ptrdiff_t>(m);
-    if (mid != order.end()) std::nth_element(order.begin(), mid, order.end(), better);
-    std::sort(order.begin(), mid, better);
+  for (;; capacity *= 4) {
+    BestScores best(capacity);
+    score_all(best);
     out.clear();
-    for (std::size_t r = 0; r < m && out.size() < keep; ++r) {
-      const Scored s{scores[order[r]], pose_of(order[r])};
+    for (const BestScores::Entry& e : best.sorted()) {
+      if (out.size() >= keep) break;
+      const Scored s{e.score, pose_of(e.index)};
       bool near = false;
       for (const Scored& o : out) {
         if (std::hypot(s.pose.x - o.pose.x, s.pose.y - o.pose.y) < dxy &&
@@ -146,7 +199,7 @@ std::vector<Scored> best_distinct(const std::vector<float>& scores, std::size_t 
       }
       if (!near) out.push_back(s);
     }
-    if (out.size() >= keep || m == order.size()) return out;
+    if (out.size() >= keep || !best.dropped()) return out;
   }
 }
 

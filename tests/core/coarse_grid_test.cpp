@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstdint>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "esfleet/core/geometry.hpp"
@@ -163,6 +164,50 @@ TEST(CoarseGrid, FineSumsAreTheSumsAtEachCellAcrossTiles) {
   EXPECT_GT(crossing, 20);  // rows across a tile edge were read
 }
 
+TEST(CoarseGrid, BestScoresKeepAPrefixOfTheSortedScoresInBoundedMemory) {
+  const unsigned seed = 20261208;
+  std::mt19937 rng(seed);
+  for (const int levels : {3, 1000000}) {
+    std::uniform_int_distribution<int> level(-levels, levels);
+    std::vector<float> scores(20000);
+    for (float& s : scores) s = static_cast<float>(level(rng));
+    std::vector<BestScores::Entry> all;
+    for (std::size_t i = 0; i < scores.size(); ++i) {
+      if (scores[i] > 0.0f) all.push_back({scores[i], i});
+    }
+    std::sort(all.begin(), all.end(), BestScores::better);
+    for (const std::size_t capacity : {1, 10, 999, 9000, 20000}) {
+      for (const bool worst_first : {false, true}) {
+        // In chunks of 100 in an order of their own; or one at a time, worst first, so that
+        // every score offered is kept and those cut are the only ones dropped.
+        BestScores top(capacity);
+        const auto where = "seed " + std::to_string(seed) + " levels " + std::to_string(levels) +
+                           " capacity " + std::to_string(capacity) +
+                           (worst_first ? " worst first" : "");
+        if (worst_first) {
+          for (auto e = all.rbegin(); e != all.rend(); ++e) {
+            top.add(&scores[e->index], 1, e->index);
+            ASSERT_LT(top.size(), 2 * capacity) << where;
+          }
+        } else {
+          std::vector<std::size_t> chunks(scores.size() / 100);
+          for (std::size_t c = 0; c < chunks.size(); ++c) chunks[c] = c;
+          std::shuffle(chunks.begin(), chunks.end(), rng);
+          for (const std::size_t c : chunks) top.add(scores.data() + 100 * c, 100, 100 * c);
+        }
+        const std::vector<BestScores::Entry> kept = top.sorted();
+        ASSERT_GE(kept.size(), std::min(capacity, all.size())) << where;
+        ASSERT_LT(kept.size(), 2 * capacity) << where;
+        EXPECT_EQ(top.dropped(), kept.size() < all.size()) << where;
+        for (std::size_t k = 0; k < kept.size(); ++k) {
+          ASSERT_EQ(kept[k].score, all[k].score) << where << " rank " << k;
+          ASSERT_EQ(kept[k].index, all[k].index) << where << " rank " << k;
+        }
+      }
+    }
+  }
+}
+
 /// The definition: every pose sorted by score (stable: ties by index), then taken greedily.
 std::vector<Scored> reference_best_distinct(const std::vector<float>& scores,
                                             const std::vector<Pose2>& poses, std::size_t keep,
@@ -196,7 +241,7 @@ TEST(CoarseGrid, BestDistinctPosesAreThoseOfAFullSort) {
       }
     }
   }
-  const auto pose_of = [&poses](std::size_t i) { return poses[i]; };
+  const auto pose_of = [&poses](std::uint64_t i) { return poses[i]; };
   // Scores as a search gives them: highest near a few poses and falling off around each, so
   // the best hundreds of scores are a handful of distinct poses (rounded: ties); and random
   // scores, with few levels (many ties) or many, and few of them positive or all.
@@ -225,23 +270,48 @@ TEST(CoarseGrid, BestDistinctPosesAreThoseOfAFullSort) {
     }
   }
   int compared = 0;
+  int retried = 0;
   for (std::size_t l = 0; l < landscapes.size(); ++l) {
     const std::vector<float>& scores = landscapes[l];
+    // Offered a heading at a time, first to last and last to first (ties are by index, not by
+    // the order offered); the capacities make the kept scores be cut many times or never, and
+    // the pass undecided on the first try (then scored again with 4 times the capacity).
+    const std::size_t chunk = static_cast<std::size_t>(side * side);
     for (const std::size_t keep : {1, 8, 64, 600}) {
-      const std::vector<Scored> got = best_distinct(scores, keep, 0.3, deg_to_rad(5.0), pose_of);
       const std::vector<Scored> want =
           reference_best_distinct(scores, poses, keep, 0.3, deg_to_rad(5.0));
-      ASSERT_EQ(got.size(), want.size()) << "seed " << seed << " scores " << l << " keep " << keep;
-      for (std::size_t k = 0; k < got.size(); ++k) {
-        ASSERT_EQ(got[k].score, want[k].score) << "seed " << seed << " rank " << k;
-        ASSERT_EQ(got[k].pose.x, want[k].pose.x) << "seed " << seed << " rank " << k;
-        ASSERT_EQ(got[k].pose.y, want[k].pose.y) << "seed " << seed << " rank " << k;
-        ASSERT_EQ(got[k].pose.theta, want[k].pose.theta) << "seed " << seed << " rank " << k;
+      for (const bool backwards : {false, true}) {
+        for (const std::size_t capacity : {1, 5, 64, 1000000}) {
+          int calls = 0;
+          const auto score_all = [&](BestScores& top) {
+            ++calls;
+            for (std::size_t h = 0; h < static_cast<std::size_t>(headings); ++h) {
+              const std::size_t first = (backwards ? headings - 1 - h : h) * chunk;
+              top.add(scores.data() + first, chunk, first);
+            }
+          };
+          const std::vector<Scored> got =
+              best_distinct(score_all, keep, 0.3, deg_to_rad(5.0), pose_of, capacity);
+          retried += calls > 1;
+          const auto where = [&] {
+            return "seed " + std::to_string(seed) + " scores " + std::to_string(l) + " keep " +
+                   std::to_string(keep) + " capacity " + std::to_string(capacity) +
+                   (backwards ? " backwards" : "");
+          };
+          ASSERT_EQ(got.size(), want.size()) << where();
+          for (std::size_t k = 0; k < got.size(); ++k) {
+            ASSERT_EQ(got[k].score, want[k].score) << where() << " rank " << k;
+            ASSERT_EQ(got[k].pose.x, want[k].pose.x) << where() << " rank " << k;
+            ASSERT_EQ(got[k].pose.y, want[k].pose.y) << where() << " rank " << k;
+            ASSERT_EQ(got[k].pose.theta, want[k].pose.theta) << where() << " rank " << k;
+          }
+          compared += static_cast<int>(got.size());
+        }
       }
-      compared += static_cast<int>(got.size());
     }
   }
-  EXPECT_GT(compared, 2000);
+  EXPECT_GT(retried, 20);  // undecided passes were scored again
+  EXPECT_GT(compared, 20000);
 }
 
 }  // namespace

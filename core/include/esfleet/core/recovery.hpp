@@ -18,6 +18,7 @@
 // The result is taken only when it agrees clearly better with the map than the tracked pose
 // (Slam decides; see SlamConfig::recovery).
 
+#include <cstdint>
 #include <vector>
 
 #include "esfleet/core/es_search.hpp"
@@ -205,9 +206,9 @@ bool overlaps_enough(const RecoveryConfig& config, const FitnessValue& recovered
                      const FitnessValue& tracked);
 
 struct RecoveryResult {
-  EsResult result;            ///< the pose found and its fitness terms (tracking's fitness)
-  std::vector<Pose2> coarse;  ///< the distinct coarse candidates, best first (diagnostics)
-  int coarse_poses = 0;       ///< poses scored in the coarse stage
+  EsResult result;                ///< the pose found and its fitness terms (tracking's fitness)
+  std::vector<Pose2> coarse;      ///< the distinct coarse candidates, best first (diagnostics)
+  std::int64_t coarse_poses = 0;  ///< poses scored in the coarse stage
 };
 
 /// The correlative search around `centre` (Slam: the predicted position with the previous
