@@ -10,6 +10,7 @@
 // The status reader's callback only stores the newest status under a mutex; everything else
 // runs on the application thread.
 
+#include <chrono>
 #include <cstdint>
 #include <memory>
 #include <mutex>
@@ -68,6 +69,12 @@ class Contributor {
   /// last relocalisation were refused max_rejections times in a row (logged as a warning):
   /// the caller then relocalises.
   bool take_relocalise();
+  /// Blocks until a leader's contribution reader is matched with this robot's writer, or
+  /// `timeout` passes; true if matched. (Contributions are VOLATILE: one sent before then is
+  /// lost, as a scan is, and the next one goes.)
+  bool wait_for_leader(std::chrono::milliseconds timeout) const {
+    return writer_->wait_for_matched(1, timeout);
+  }
   /// The leader has answered the last contribution sent (or none was sent).
   bool answered() const;
   std::uint64_t sent() const { return sent_; }

@@ -94,6 +94,9 @@ TEST(Contributor, SendsTrackedScansWithEvidenceAndRelocalisesAfterRefusals) {
   Contributor contributor(robot, "r1", config);
   ASSERT_TRUE(leader.reader.wait_for_matched(1, milliseconds(5000)));
   ASSERT_TRUE(leader.status.wait_for_matched(1, milliseconds(5000)));
+  // The reader matched the writer; the writer must match it too, or the first sent is lost
+  // (failed twice here while valgrind loaded the machine).
+  ASSERT_TRUE(contributor.wait_for_leader(milliseconds(5000)));
   const mapshare::MapReplica replica = shared_map();
   const mapshare::MapReplica none;
 
