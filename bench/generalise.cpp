@@ -361,6 +361,13 @@ void add_generalise_options(CLI::App& cmd, GeneraliseOptions& o) {
                  "--logs sim, sim-fr079: least distance of the robot to walls, m (default: the "
                  "world's, 0.35 in mit-csail, 0.25 in fr079)")
       ->check(CLI::Range(0.0, 10.0));
+  cmd.add_option("--sim-beams", o.sim_laser.beams,
+                 "--logs sim, sim-fr079: the laser's beams per scan")
+      ->capture_default_str();
+  cmd.add_option("--sim-fov", o.sim_laser.fov_deg,
+                 "--logs sim, sim-fr079: the laser's field of view, deg, centred forward (360: "
+                 "all round, as many 2D lidars on small robots)")
+      ->capture_default_str();
   cmd.add_option("--sim-max-range", o.sim_laser.max_range,
                  "--logs sim, sim-fr079: the laser's range, m (no-return readings report it)")
       ->capture_default_str();
@@ -508,6 +515,20 @@ int run_generalise(GeneraliseOptions& o) {
       }
     }
     info["farthest_return_m"] = farthest;
+    if (!log.scans.empty()) {
+      // The laser as logged (before --beam-step): a 180 deg laser's first and last beams are
+      // 180 deg apart, an all-round one's 360 deg less one increment.
+      const LaserScan& first = log.scans.front();
+      const auto beams = first.ranges.size();
+      const double first_to_last =
+          rad_to_deg(static_cast<double>(first.angle_increment) *
+                     static_cast<double>(beams > 0 ? beams - 1 : 0));
+      info["laser"] = {{"beams", beams},
+                       {"angle_min_deg", rad_to_deg(first.angle_min)},
+                       {"angle_increment_deg", rad_to_deg(first.angle_increment)},
+                       {"first_to_last_deg", first_to_last}};
+      std::fprintf(stderr, "; %zu beams, %.4g deg from first to last", beams, first_to_last);
+    }
     std::fprintf(stderr, "\n");
     log_info.push_back(info);
   }
@@ -636,6 +657,8 @@ int run_generalise(GeneraliseOptions& o) {
         {"turn_rate_deg", o.sim_motion.turn_rate_deg},
         {"clearance",
          o.sim_clearance >= 0.0 ? nlohmann::json(o.sim_clearance) : nlohmann::json("per world")},
+        {"beams", o.sim_laser.beams},
+        {"fov_deg", o.sim_laser.fov_deg},
         {"max_range", o.sim_laser.max_range},
         {"range_noise", o.sim_laser.range_noise},
         {"dropout", o.sim_laser.dropout}}},
