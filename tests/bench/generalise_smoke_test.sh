@@ -29,6 +29,35 @@ generalise() {
   }
 }
 
+# expect_usage_error MESSAGE ARGS...: esfleet-bench generalise ARGS exits 2 with MESSAGE.
+expect_usage_error() {
+  local message=$1 rc=0
+  shift
+  "$bin/esfleet-bench" generalise --data-dir "$data" "$@" --out "$work/bad.json" >/dev/null \
+    2>"$work/bad.err" || rc=$?
+  [ "$rc" -eq 2 ] && grep -q -- "$message" "$work/bad.err" ||
+    { cat "$work/bad.err"; echo "FAIL: $*: exit code $rc, expected 2 and '$message'"; exit 1; }
+}
+
+# The checks below import check.py: finish(errors) prints them and fails; near_truth(run,
+# errors) wants a simulated run's derived score under 0.10 m.
+cat >"$work/check.py" <<'PY'
+import sys
+
+
+def near_truth(run, errors, limit=0.10):
+    mean = run["derived"]["trans_mean"]
+    if not mean < limit:
+        errors.append(f'{run["log"]}: derived {mean} m against the truth, expected < {limit}')
+
+
+def finish(errors):
+    if errors:
+        print("FAIL:\n  " + "\n  ".join(errors))
+        sys.exit(1)
+PY
+export PYTHONPATH="$work"
+
 run() {  # run JOBS NAME
   generalise "$2" --logs csail-keys,csail --ks 3 --modes laser,odom --seeds 1 --max-scans 60 \
     --jobs "$1"
@@ -46,6 +75,7 @@ grep -q '^| csail | 3 | 60 |' "$work/one.md" || { echo "FAIL: no csail k=3 row";
 
 python3 - "$work/one.json" "$work/two.json" <<'PY'
 import json, math, sys
+from check import finish
 
 one = json.load(open(sys.argv[1]))
 two = json.load(open(sys.argv[2]))
@@ -94,9 +124,7 @@ def scores(doc):
 check(scores(one) == scores(two), "--jobs 2 gave other scores than --jobs 1")
 check(one["summary"] == two["summary"], "--jobs 2 gave another summary than --jobs 1")
 
-if errors:
-    print("FAIL:\n  " + "\n  ".join(errors))
-    sys.exit(1)
+finish(errors)
 print("generalise JSON: 4 runs, counts and fields as expected, --jobs 1 and 2 agree")
 PY
 
@@ -106,6 +134,7 @@ grep -q '^| sim-1 | 1 | 60 |' "$work/sim.md" || { echo "FAIL: no sim-1 row"; exi
 grep -q '^| sim-fr079-1 | 1 | 60 |' "$work/sim.md" || { echo "FAIL: no sim-fr079-1 row"; exit 1; }
 python3 - "$work/sim.json" <<'PY'
 import json, sys
+from check import finish
 
 runs = json.load(open(sys.argv[1]))["runs"]
 errors = []
@@ -124,9 +153,7 @@ for r in runs:
     # refused; sim-fr079-1 0.028 and 0.048 m.
     if not d["trans_mean"] < 0.10:
         errors.append(f'{name}: derived {d["trans_mean"]} m against the truth, expected < 0.10')
-if errors:
-    print("FAIL:\n  " + "\n  ".join(errors))
-    sys.exit(1)
+finish(errors)
 # What the logs held: the robot's steps (at most 1 m and 60 deg a scan by default) and the
 # laser's farthest return (CSAIL's world has rooms deeper than 8 m).
 for log in json.load(open(sys.argv[1]))["logs"]:
@@ -135,9 +162,7 @@ for log in json.load(open(sys.argv[1]))["logs"]:
         errors.append(f'{log["log"]}: reference steps {step}, expected up to 1 m and 60 deg')
     if log["log"] == "sim-1" and not 8 < far <= 30:
         errors.append(f'sim-1: farthest return {far} m, expected over 8 m (30 m laser)')
-if errors:
-    print("FAIL:\n  " + "\n  ".join(errors))
-    sys.exit(1)
+finish(errors)
 print("generalise --logs sim,sim-fr079: 4 runs within 0.10 m of the simulation's truth")
 PY
 
@@ -148,6 +173,7 @@ generalise hard --logs sim-fr079 --sim-seeds 1 --sim-duration 60 --sim-speed 1.5
   --sim-max-range 8 --modes laser --seeds 1
 python3 - "$work/hard.json" <<'PY'
 import json, sys
+from check import finish, near_truth
 
 doc = json.load(open(sys.argv[1]))
 log, run, errors = doc["logs"][0], doc["runs"][0], []
@@ -160,19 +186,12 @@ sim = doc["sim"]
 if sim["speed"] != 1.5 or sim["max_range"] != 8 or sim["clearance"] != "per world":
     errors.append(f"JSON sim block {sim}")
 # 0.073 m when written (in the CSAIL world an 8 m laser sees no corridor's end: 2.16 m).
-if not run["derived"]["trans_mean"] < 0.10:
-    errors.append(f'derived {run["derived"]["trans_mean"]} m against the truth, expected < 0.10')
-if errors:
-    print("FAIL:\n  " + "\n  ".join(errors))
-    sys.exit(1)
+near_truth(run, errors)
+finish(errors)
 print(f'generalise sim-fr079-1 at 1.5 m/s with an 8 m laser: steps up to {step["max_m"]:.2f} m, '
       f'{run["derived"]["trans_mean"]:.3f} m')
 PY
-rc=0
-"$bin/esfleet-bench" generalise --data-dir "$data" --logs sim --sim-speed 9 \
-  --out "$work/bad.json" >/dev/null 2>"$work/bad.err" || rc=$?
-[ "$rc" -eq 2 ] && grep -q -- '--sim-speed must be in (0, 5]' "$work/bad.err" ||
-  { cat "$work/bad.err"; echo "FAIL: --sim-speed 9: exit code $rc, expected 2 naming it"; exit 1; }
+expect_usage_error '--sim-speed must be in (0, 5]' --logs sim --sim-speed 9
 
 # An all-round lidar (--sim-fov, --sim-beams: 360 beams over 360 deg, 12 m, as on many small
 # robots) reaches the log, as the JSON's laser block shows, and holds laser only; a field of
@@ -181,6 +200,7 @@ generalise round --logs sim --sim-seeds 1 --sim-duration 60 --sim-fov 360 --sim-
   --sim-max-range 12 --modes laser --seeds 1
 python3 - "$work/round.json" <<'PY'
 import json, sys
+from check import finish, near_truth
 
 doc = json.load(open(sys.argv[1]))
 laser, run, errors = doc["logs"][0]["laser"], doc["runs"][0], []
@@ -190,18 +210,11 @@ if laser["beams"] != 360 or abs(laser["first_to_last_deg"] - 359) > 0.01 or \
 if doc["sim"]["fov_deg"] != 360 or doc["sim"]["beams"] != 360:
     errors.append(f'JSON sim block {doc["sim"]}')
 # 0.029 m when written.
-if not run["derived"]["trans_mean"] < 0.10:
-    errors.append(f'derived {run["derived"]["trans_mean"]} m against the truth, expected < 0.10')
-if errors:
-    print("FAIL:\n  " + "\n  ".join(errors))
-    sys.exit(1)
+near_truth(run, errors)
+finish(errors)
 print(f'generalise sim-1 with a 360 deg 12 m lidar: {run["derived"]["trans_mean"]:.3f} m')
 PY
-rc=0
-"$bin/esfleet-bench" generalise --data-dir "$data" --logs sim --sim-fov 400 \
-  --out "$work/bad.json" >/dev/null 2>"$work/bad.err" || rc=$?
-[ "$rc" -eq 2 ] && grep -q -- '--sim-fov must be in (0, 360]' "$work/bad.err" ||
-  { cat "$work/bad.err"; echo "FAIL: --sim-fov 400: exit code $rc, expected 2 naming it"; exit 1; }
+expect_usage_error '--sim-fov must be in (0, 360]' --logs sim --sim-fov 400
 
 # fr079 every 10th scan with a 1 deg laser, SLAM seed 5, laser only: the robot reverses at scan
 # 138; the recovery jump there was that reversal, the prediction at 139 drove on forwards 2 m
@@ -253,6 +266,7 @@ grep -q '^| csail | 1 | laser only | [0-9.]* | [0-9.]* | [0-9.]* | [0-9.]* | [0-
   "$work/floor.md" || { echo "FAIL: no per-gap row for csail k=1"; exit 1; }
 python3 - "$work/floor.json" <<'PY'
 import json, sys
+from check import finish
 
 runs = {r["k"]: r for r in json.load(open(sys.argv[1]))["runs"]}
 errors = []
@@ -282,9 +296,7 @@ for k, want_floor in ((1, False), (4, True)):
     for g in gaps[:3]:
         if g["trans_mean"] is None or (g["floor_trans_mean"] is not None) != want_floor:
             errors.append(f"summary k={k} gap {g['gap']}: {g}")
-if errors:
-    print("FAIL:\n  " + "\n  ".join(errors))
-    sys.exit(1)
+finish(errors)
 print(f'generalise floor: csail k=4 derived {runs[4]["derived"]["trans_mean"]:.3f} m, '
       f'floor {runs[4]["derived_floor"]["trans_mean"]:.3f} m')
 PY
