@@ -291,7 +291,7 @@ RecoveryResult recover_pose(const RecoveryConfig& config, const TrackingConfig& 
   const std::size_t side = static_cast<std::size_t>(2 * nxy + 1);
   const std::size_t per_heading = side * side;
   const coarse_grid::GridScorer scorer(window, cx, cy, nxy);
-  // Index i: heading th_lo + i / per_heading, then row iy, then column ix, each from -nxy.
+  // Each heading's scores are offered as they are summed (kept only while among the best).
   const auto headings = static_cast<std::size_t>(th_hi - th_lo + 1);
   std::vector<float> heading_scores(per_heading);
   const auto score_all = [&](coarse_grid::BestScores& top) {
@@ -302,6 +302,7 @@ RecoveryResult recover_pose(const RecoveryConfig& config, const TrackingConfig& 
               static_cast<std::uint64_t>(it - th_lo) * per_heading);
     }
   };
+  // Index i: heading th_lo + i / per_heading, then row iy, then column ix, each from -nxy.
   const auto pose_of = [&](std::uint64_t i) {
     const auto it = th_lo + static_cast<int>(i / per_heading);
     const auto iy = static_cast<int>(i % per_heading / side) - nxy;
