@@ -84,12 +84,12 @@ struct SimWorld {
 constexpr std::array<SimWorld, 2> kSimWorlds = {
     {{"sim", "mit-csail", 0.35, "sim-"}, {"sim-fr079", "fr079", 0.25, "sim-fr079-"}}};
 
-/// The simulation of the robot of --logs world `w` with the options' motion and laser: one scan
-/// per second (by default at up to 1 m/s, 181 beams over 180 degrees, 30 m range). Throws
+/// The simulation of the robot of --logs world `w` with the options' rate, motion and laser (by
+/// default one scan per second at up to 1 m/s, 181 beams over 180 degrees, 30 m range). Throws
 /// std::invalid_argument naming the bench's flag (--sim-speed) for a value out of range.
 sim::FleetConfig simulated_robot(const GeneraliseOptions& o, const SimWorld& w) {
   sim::FleetConfig fc;
-  fc.rate = 1.0;
+  fc.rate = o.sim_rate;
   fc.motion = o.sim_motion;
   fc.motion.clearance = o.sim_clearance >= 0.0 ? o.sim_clearance : w.clearance;
   fc.laser = o.sim_laser;
@@ -347,8 +347,12 @@ void add_generalise_options(CLI::App& cmd, GeneraliseOptions& o) {
                  "(a key-scan log), scored against its true poses")
       ->capture_default_str();
   cmd.add_option("--sim-duration", o.sim_duration_s,
-                 "--logs sim, sim-fr079: seconds of each simulated log (as many scans)")
+                 "--logs sim, sim-fr079: seconds of each simulated log (--sim-rate scans each)")
       ->check(CLI::Range(2.0, 36000.0))
+      ->capture_default_str();
+  cmd.add_option("--sim-rate", o.sim_rate,
+                 "--logs sim, sim-fr079: scans per second (1: a key-scan log, the robot moving up "
+                 "to --sim-speed metres between scans; 5 or more: a dense log)")
       ->capture_default_str();
   cmd.add_option("--sim-speed", o.sim_motion.speed,
                  "--logs sim, sim-fr079: the robot's top speed, m/s (at one scan a second, the "
@@ -653,7 +657,8 @@ int run_generalise(GeneraliseOptions& o) {
       {"max_scans", o.max_scans},
       {"beam_step", o.beam_step},
       {"sim",
-       {{"speed", o.sim_motion.speed},
+       {{"rate", o.sim_rate},
+        {"speed", o.sim_motion.speed},
         {"turn_rate_deg", o.sim_motion.turn_rate_deg},
         {"clearance",
          o.sim_clearance >= 0.0 ? nlohmann::json(o.sim_clearance) : nlohmann::json("per world")},

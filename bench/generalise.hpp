@@ -28,10 +28,11 @@ struct GeneraliseOptions {
   std::vector<std::string> modes = {"laser", "odom"};
   std::string seeds = "1-5";
   /// The simulated logs (--logs sim, sim-fr079): one per simulation seed, each duration_s of a
-  /// robot scanning once a second in the MIT CSAIL or the Freiburg 079 world, scored against its
-  /// true poses.
+  /// robot scanning sim_rate times a second (once: a key-scan log) in the MIT CSAIL or the
+  /// Freiburg 079 world, scored against its true poses.
   std::string sim_seeds = "1-4";
   double sim_duration_s = 400.0;
+  double sim_rate = 1.0;
   /// The simulated robot's motion and laser (--sim-speed etc.: harder conditions than the
   /// default 1 m/s, 60 deg/s, 30 m, 1 cm noise). Its clearance is the world's unless
   /// sim_clearance >= 0.

@@ -5,7 +5,7 @@
 # same scores. Then a simulated log (--logs sim, simulation seed 1, 60 s: the robot turns 60 deg
 # in place before it drives) scored against its true poses, laser only and with noisy odometry,
 # and the same in the fr079 world at 1.5 m/s with an 8 m laser (--sim-speed, --sim-max-range),
-# and with an all-round 12 m lidar (--sim-fov, --sim-beams).
+# with an all-round 12 m lidar (--sim-fov, --sim-beams), and five scans a second (--sim-rate).
 # Last, CSAIL whole and every 4th scan, laser only, seed 1: the every-4th run gets the floor of
 # its derived score (the whole run's poses at its scans), overall and per gap, the whole run none.
 #
@@ -215,6 +215,27 @@ finish(errors)
 print(f'generalise sim-1 with a 360 deg 12 m lidar: {run["derived"]["trans_mean"]:.3f} m')
 PY
 expect_usage_error '--sim-fov must be in (0, 360]' --logs sim --sim-fov 400
+
+# A dense simulated log (--sim-rate 5: five scans a second at up to 1 m/s): as many scans as
+# seconds times the rate, steps of at most 0.2 m, and the run near the truth.
+generalise dense --logs sim --sim-seeds 1 --sim-duration 20 --sim-rate 5 --modes laser --seeds 1
+python3 - "$work/dense.json" <<'PY'
+import json, sys
+from check import finish, near_truth
+
+doc = json.load(open(sys.argv[1]))
+log, run, errors = doc["logs"][0], doc["runs"][0], []
+if log["scans"] != 100 or run["scans"] != 100:
+    errors.append(f'{log["scans"]} scans in the log, {run["scans"]} run, expected 100')
+if not 0.1 < log["reference_step"]["max_m"] <= 0.2 + 1e-6:
+    errors.append(f'reference steps {log["reference_step"]}, expected up to 0.2 m')
+if doc["sim"]["rate"] != 5:
+    errors.append(f'JSON sim block {doc["sim"]}')
+near_truth(run, errors)  # 0.011 m when written
+finish(errors)
+print(f'generalise sim-1 at 5 scans a second: {run["derived"]["trans_mean"]:.3f} m')
+PY
+expect_usage_error '--sim-rate must be in (0, 100]' --logs sim --sim-rate 0
 
 # fr079 every 10th scan with a 1 deg laser, SLAM seed 5, laser only: the robot reverses at scan
 # 138; the recovery jump there was that reversal, the prediction at 139 drove on forwards 2 m
