@@ -524,9 +524,8 @@ int run_generalise(GeneraliseOptions& o) {
       // 180 deg apart, an all-round one's 360 deg less one increment.
       const LaserScan& first = log.scans.front();
       const auto beams = first.ranges.size();
-      const double first_to_last =
-          rad_to_deg(static_cast<double>(first.angle_increment) *
-                     static_cast<double>(beams > 0 ? beams - 1 : 0));
+      const double first_to_last = rad_to_deg(static_cast<double>(first.angle_increment) *
+                                              static_cast<double>(beams > 0 ? beams - 1 : 0));
       info["laser"] = {{"beams", beams},
                        {"angle_min_deg", rad_to_deg(first.angle_min)},
                        {"angle_increment_deg", rad_to_deg(first.angle_increment)},
