@@ -5,6 +5,8 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
+#include <limits>
 #include <map>
 #include <mutex>
 #include <nlohmann/json.hpp>
@@ -209,6 +211,26 @@ RunResult run_one(const GeneraliseLog& log, const RunSpec& spec, const Generalis
   return r;
 }
 
+/// The run's poses beside the reference's (evaluation output), one line per kept scan.
+void write_trajectory(const std::string& dir, const GeneraliseLog& log, const RunSpec& s,
+                      std::size_t max_scans, const std::vector<Pose2>& estimate) {
+  std::filesystem::create_directories(dir);
+  const std::vector<std::size_t> kept = subsample_indices(log.scans.size(), s.k, max_scans);
+  std::string text = "# kept scan, scan of " + log.name + ", x y theta, reference x y theta\n";
+  char line[256];
+  for (std::size_t j = 0; j < kept.size() && j < estimate.size(); ++j) {
+    const std::optional<Pose2>& ref = log.reference[kept[j]];
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    std::snprintf(line, sizeof line, "%zu %zu %.6f %.6f %.6f %.6f %.6f %.6f\n", j, kept[j],
+                  estimate[j].x, estimate[j].y, estimate[j].theta, ref ? ref->x : nan,
+                  ref ? ref->y : nan, ref ? ref->theta : nan);
+    text += line;
+  }
+  write_file_atomically(dir + "/" + log.name + "-k" + std::to_string(s.k) + "-" +
+                            mode_name(s.mode) + "-s" + std::to_string(s.seed) + ".txt",
+                        text);
+}
+
 /// Each run that kept part of a log gets the floor of its derived score from the run on every
 /// scan of that log (the raw CSAIL log for the key-scan log), same mode and seed, when that run
 /// is in the set and did not fail.
@@ -409,6 +431,10 @@ void add_generalise_options(CLI::App& cmd, GeneraliseOptions& o) {
       ->capture_default_str();
   cmd.add_option("--out", o.output, "JSON file for the runs and the summary")
       ->capture_default_str();
+  cmd.add_option("--trajectories", o.trajectories,
+                 "also write each run's poses beside the reference's to DIR/LOG-kK-MODE-sSEED.txt "
+                 "(kept scan, scan of the log, x y theta, then the reference's x y theta or nan; "
+                 "metres and radians), to trace where a run goes wrong");
   cmd.add_option("--distance-frac", o.noise.distance_frac,
                  "noisy odometry: translation sigma per metre driven, per step")
       ->capture_default_str();
@@ -571,6 +597,19 @@ int run_generalise(GeneraliseOptions& o) {
   });
 
   attach_floors(logs, specs, o.max_scans, results);
+  if (!o.trajectories.empty()) {
+    try {
+      for (std::size_t i = 0; i < specs.size(); ++i) {
+        if (results[i].error.empty()) {
+          write_trajectory(o.trajectories, logs[specs[i].log], specs[i], o.max_scans,
+                           results[i].estimate);
+        }
+      }
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "esfleet-bench generalise: %s\n", e.what());
+      return app::kExitFailure;
+    }
+  }
 
   nlohmann::json runs = nlohmann::json::array();
   std::size_t failed = 0;

@@ -43,6 +43,8 @@ struct GeneraliseOptions {
   std::size_t beam_step = 1;  ///< every run's scans keep every beam_step-th beam (keep_every_beam)
   int jobs = 1;               ///< runs in parallel (the scores do not depend on it)
   std::string output = "esfleet-bench-generalise.json";
+  /// When set, each run's estimate beside its reference poses goes to a text file in it.
+  std::string trajectories;
   bool paper = false;  ///< start from SlamConfig::paper() before the SLAM flags
   OdometryNoise noise;
   SlamConfig config;  ///< every run's SLAM; mode and seed set per run

@@ -8,6 +8,7 @@
 # with an all-round 12 m lidar (--sim-fov, --sim-beams), and five scans a second (--sim-rate).
 # Last, CSAIL whole and every 4th scan, laser only, seed 1: the every-4th run gets the floor of
 # its derived score (the whole run's poses at its scans), overall and per gap, the whole run none.
+# The first run also writes each run's poses (--trajectories), checked against its JSON.
 #
 # usage: generalise_smoke_test.sh BIN_DIR DATA_DIR
 set -euo pipefail
@@ -58,11 +59,13 @@ def finish(errors):
 PY
 export PYTHONPATH="$work"
 
-run() {  # run JOBS NAME
-  generalise "$2" --logs csail-keys,csail --ks 3 --modes laser,odom --seeds 1 --max-scans 60 \
-    --jobs "$1"
+run() {  # run JOBS NAME [ARGS...]
+  local jobs=$1 name=$2
+  shift 2
+  generalise "$name" --logs csail-keys,csail --ks 3 --modes laser,odom --seeds 1 --max-scans 60 \
+    --jobs "$jobs" "$@"
 }
-run 1 one
+run 1 one --trajectories "$work/tr"
 run 2 two
 cat "$work/one.md"
 
@@ -126,6 +129,50 @@ check(one["summary"] == two["summary"], "--jobs 2 gave another summary than --jo
 
 finish(errors)
 print("generalise JSON: 4 runs, counts and fields as expected, --jobs 1 and 2 agree")
+PY
+
+# --trajectories: each run's poses beside the reference's, one line per kept scan; the gap-1
+# derived score recomputed from a file is the JSON's.
+python3 - "$work/one.json" "$work/tr" <<'PY'
+import json, math, sys
+from check import finish
+
+
+def relative(a, b):  # b seen from a
+    dx, dy = b[0] - a[0], b[1] - a[1]
+    c, s = math.cos(a[2]), math.sin(a[2])
+    return (c * dx + s * dy, -s * dx + c * dy, b[2] - a[2])
+
+
+errors = []
+for r in json.load(open(sys.argv[1]))["runs"]:
+    path = f'{sys.argv[2]}/{r["log"]}-k{r["k"]}-{r["mode"]}-s{r["seed"]}.txt'
+    try:
+        rows = [[float(v) for v in line.split()] for line in open(path) if line[0] != "#"]
+    except OSError as e:
+        errors.append(f"{path}: {e}")
+        continue
+    if len(rows) != 60 or any(len(row) != 8 for row in rows):
+        errors.append(f"{path}: {len(rows)} lines, expected 60 of 8 columns")
+        continue
+    if [row[0] for row in rows] != list(range(60)) or \
+            [row[1] for row in rows] != [r["k"] * j for j in range(60)]:
+        errors.append(f"{path}: kept scans or their indices in the log are not in order")
+    ref = [row[5:8] for row in rows if not math.isnan(row[5])]
+    est = [row[2:5] for row in rows if not math.isnan(row[5])]
+    if len(ref) != r["derived"]["reference_scans"]:
+        errors.append(f'{path}: {len(ref)} reference poses, JSON {r["derived"]["reference_scans"]}')
+        continue
+    gap1 = []
+    for i in range(len(ref) - 1):
+        e, t = relative(est[i], est[i + 1]), relative(ref[i], ref[i + 1])
+        gap1.append(math.hypot(*relative((t[0], t[1], t[2]), (e[0], e[1], e[2]))[:2]))
+    mean = sum(gap1) / len(gap1)
+    want = next(g["trans_mean"] for g in r["derived"]["gaps"] if g["gap"] == 1)
+    if not abs(mean - want) < 1e-4:
+        errors.append(f"{path}: gap-1 error {mean:.6f} m from the file, JSON {want:.6f} m")
+finish(errors)
+print("generalise --trajectories: 4 files, their gap-1 errors those of the JSON")
 PY
 
 generalise sim --logs sim,sim-fr079 --sim-seeds 1 --sim-duration 60 --modes laser,odom --seeds 1
