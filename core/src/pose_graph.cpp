@@ -88,6 +88,9 @@ PoseGraphResult PoseGraph::optimize(int max_iterations) {
     return result;
   }
   const auto dim = static_cast<Eigen::Index>(3 * n);
+  // Every iteration's system has the same sparsity pattern (one block per node and per edge):
+  // the fill-reducing ordering and the symbolic factorisation are computed once.
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower> solver;
   for (int it = 0; it < max_iterations; ++it) {
     // The lower triangle only (what SimplicialLDLT reads): 21 entries per edge instead of 36.
     std::vector<Eigen::Triplet<double>> triplets;
@@ -126,7 +129,8 @@ PoseGraphResult PoseGraph::optimize(int max_iterations) {
     h.setFromTriplets(triplets.begin(), triplets.end());
     // The triplets go before the factorisation (the peak memory of a large final pass).
     triplets = {};
-    Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower> solver(h);
+    if (it == 0) solver.analyzePattern(h);
+    solver.factorize(h);
     if (solver.info() != Eigen::Success) break;
     const Eigen::VectorXd dx = solver.solve(-b);
     if (solver.info() != Eigen::Success || !dx.allFinite()) break;
