@@ -162,8 +162,8 @@ std::optional<LoopMatch> find_loop_closure(const std::vector<KeyScan>& keys,
   window.n_xy = static_cast<int>(std::ceil(config.window_xy / window.step_xy));
   window.n_theta =
       static_cast<int>(std::ceil(deg_to_rad(config.window_theta_deg) / window.step_theta));
-  const std::optional<WindowMatch> best =
-      search_window(submap, points, coarse_options, window, config.rival_distance);
+  const std::optional<WindowMatch> best = search_window(
+      submap, points, coarse_options, window, config.rival_distance, config.max_ambiguity);
   if (!best) return std::nullopt;
   LoopMatch match;
   match.ambiguity = static_cast<double>(best->rival) / static_cast<double>(best->score);

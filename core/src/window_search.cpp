@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <stdexcept>
 #include <vector>
 
@@ -117,19 +118,27 @@ struct Block {
 class Searcher {
  public:
   Searcher(HeadingScorer& scorer, const SearchWindow& w, double cells_per_step, int levels,
-           double rival_distance, bool use_penalty)
+           double rival_distance, double rival_ratio, bool use_penalty)
       : scorer_(scorer),
         w_(w),
         side_(2 * w.n_xy + 1),
         grids_(scorer, cells_per_step, levels, use_penalty),
         levels_(levels),
         rival_distance_(rival_distance),
+        rival_ratio_(rival_ratio),
         cols_(scorer.size()),
         rows_(scorer.size()) {}
 
   /// The best candidate (lowest index among equal scores); nullopt if none scores > 0.
   std::optional<WindowMatch> run() {
     std::vector<Block> roots = root_blocks();
+    // The centre's position at every heading first (a loop closure's estimate is mostly near
+    // the match): a high best early prunes more. The result is the same: blocks bounded at the
+    // best are still searched, so a tie of lower index still wins.
+    for (int it = -w_.n_theta; it <= w_.n_theta; ++it) {
+      heading(it);
+      leaf(Block{0.0f, it, 0, 0, 0}, false);
+    }
     for (const Block& b : roots) {
       if (!(b.bound > 0.0f) || (found_ && b.bound * (1.0f + kSlack) < best_)) continue;
       heading(b.it);
@@ -142,7 +151,8 @@ class Searcher {
     m.pose = window_pose(w_, best_index_);
     best_pose_ = m.pose;
     for (const Block& b : roots) {
-      if (!(b.bound * (1.0f + kSlack) > rival_) || inside_rival_disk(b)) continue;
+      if (rival_beyond_ratio()) break;
+      if (!may_hold_rival(b)) continue;
       heading(b.it);
       descend(b, true);
     }
@@ -189,6 +199,24 @@ class Searcher {
   std::size_t index_of(int it, int ix, int iy) const {
     return static_cast<std::size_t>(((it + w_.n_theta) * side_ + iy + w_.n_xy) * side_ + ix +
                                     w_.n_xy);
+  }
+
+  /// A rival beyond rival_ratio_ decides the caller's question: the search for it stops.
+  bool rival_beyond_ratio() const {
+    return static_cast<double>(rival_) / static_cast<double>(best_) > rival_ratio_;
+  }
+
+  /// Whether block b may hold a candidate the rival's search needs: one outside the disk
+  /// around the best, scoring above the rival so far and, with a finite rival_ratio_, beyond
+  /// that ratio of the best (below it, the rival's exact value does not change the answer).
+  bool may_hold_rival(const Block& b) const {
+    const float upper = b.bound * (1.0f + kSlack);
+    if (!(upper > rival_)) return false;
+    if (static_cast<double>(upper) / static_cast<double>(best_) <= rival_ratio_ &&
+        rival_ratio_ < std::numeric_limits<double>::infinity()) {
+      return false;
+    }
+    return !inside_rival_disk(b);
   }
 
   bool inside_rival_disk(const Block& b) const {
@@ -245,12 +273,10 @@ class Searcher {
     }
     for (int k = 0; k < n; ++k) {
       const Block& c = children[k];
+      if (rival && rival_beyond_ratio()) return;
       if (c.level > 0) {
         if (!(c.bound > 0.0f)) continue;
-        if (rival ? !(c.bound * (1.0f + kSlack) > rival_) || inside_rival_disk(c)
-                  : found_ && c.bound * (1.0f + kSlack) < best_) {
-          continue;
-        }
+        if (rival ? !may_hold_rival(c) : found_ && c.bound * (1.0f + kSlack) < best_) continue;
       }
       descend(c, rival);
     }
@@ -262,6 +288,7 @@ class Searcher {
   BoundGrids grids_;
   int levels_;
   double rival_distance_;
+  double rival_ratio_;
   std::vector<std::int32_t> cols_, rows_;
   int heading_ = 0x7fffffff;
   bool found_ = false;
@@ -276,13 +303,14 @@ class Searcher {
 
 std::optional<WindowMatch> search_window(const GridMap& map, const ScanPoints& points,
                                          const FitnessOptions& options, const SearchWindow& w,
-                                         double rival_distance) {
+                                         double rival_distance, double rival_ratio) {
   HeadingScorer scorer(map, points, options);
   const double cell = map.cell_size() * static_cast<double>(1 << options.level);
   // Root blocks of up to 32 x 32 positions; no larger than the window.
   int levels = 0;
   while (levels < 5 && (1 << levels) < 2 * w.n_xy + 1) ++levels;
-  Searcher searcher(scorer, w, w.step_xy / cell, levels, rival_distance, options.use_penalty);
+  Searcher searcher(scorer, w, w.step_xy / cell, levels, rival_distance, rival_ratio,
+                    options.use_penalty);
   return searcher.run();
 }
 

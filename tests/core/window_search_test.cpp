@@ -1,6 +1,7 @@
 // The branch-and-bound window search against scoring every candidate: the same best candidate
 // (lowest index of the highest score) and the same rival score, bit for bit, on maps made from
-// a synthetic world, for seeded random scans, windows, headings and both fitness conditions.
+// a synthetic world, for seeded random scans, windows, headings and both fitness conditions;
+// with a rival ratio, the same answer to whether the rival is within it.
 
 #include "esfleet/core/window_search.hpp"
 
@@ -97,6 +98,54 @@ TEST(WindowSearch, BranchAndBoundEqualsBruteForce) {
   EXPECT_LT(scored * 4, total);
 }
 
+TEST(WindowSearch, ARivalRatioDecidesAsTheExactRivalWithLessWork) {
+  // As a loop closure asks it: is the rival within a ratio of the best? The best is the same;
+  // rival / score exceeds the ratio exactly when the brute-force rival's does, and the rival
+  // reported is a score of the candidates that far (at most the brute-force rival).
+  const auto world = asymmetric_room();
+  const GridMap map = map_of(world, 12.0, 8.0);
+  std::size_t work_ratio = 0, work_exact = 0, beyond = 0, within = 0;
+  for (std::uint64_t seed = 1; seed <= 24; ++seed) {
+    Rng rng(seed + 1000);
+    const Pose2 truth{1.0 + 10.0 * rng.uniform(), 1.0 + 6.0 * rng.uniform(),
+                      (2.0 * rng.uniform() - 1.0) * std::numbers::pi};
+    const ScanPoints points = prepare_scan(make_scan(world, truth));
+    SearchWindow w;
+    w.centre = {truth.x + rng.uniform() - 0.5, truth.y + rng.uniform() - 0.5,
+                truth.theta + 0.2 * (rng.uniform() - 0.5)};
+    w.step_xy = 0.1;
+    w.step_theta = std::atan2(0.2, 10.0);
+    w.n_xy = 5 + static_cast<int>(rng.uniform() * 30);
+    w.n_theta = 2 + static_cast<int>(rng.uniform() * 10);
+    FitnessOptions o;
+    o.level = 2;
+    o.stride = 2;
+    o.use_penalty = seed % 2 == 0;
+    const double rival_distance = seed % 3 == 0 ? 0.3 : 1.0;
+    const auto exact = search_window(map, points, o, w, rival_distance);
+    const auto brute = search_window_brute_force(map, points, o, w, rival_distance);
+    ASSERT_TRUE(brute.has_value()) << "seed " << seed;
+    const double brute_ratio = static_cast<double>(brute->rival) / brute->score;
+    // Ratios on both sides of this scene's, and at it (the boundary: not beyond).
+    for (const double ratio : {0.3, 0.7, 0.9, brute_ratio, brute_ratio * 0.999}) {
+      const auto bb = search_window(map, points, o, w, rival_distance, ratio);
+      ASSERT_TRUE(bb.has_value()) << "seed " << seed << " ratio " << ratio;
+      EXPECT_EQ(bb->index, brute->index) << "seed " << seed << " ratio " << ratio;
+      EXPECT_EQ(bb->score, brute->score) << "seed " << seed << " ratio " << ratio;
+      const bool is_beyond = static_cast<double>(bb->rival) / bb->score > ratio;
+      EXPECT_EQ(is_beyond, brute_ratio > ratio) << "seed " << seed << " ratio " << ratio;
+      EXPECT_LE(bb->rival, brute->rival) << "seed " << seed << " ratio " << ratio;
+      (is_beyond ? beyond : within) += 1;
+      work_ratio += bb->scored + bb->bounded;
+      work_exact += exact->scored + exact->bounded;
+    }
+  }
+  // Both answers occur, and the ratio saves work (most of the rival's search).
+  EXPECT_GT(beyond, 10U);
+  EXPECT_GT(within, 10U);
+  EXPECT_LT(work_ratio * 10, work_exact * 9);
+}
+
 TEST(WindowSearch, TiesGoToTheLowestIndexAndNothingScoresOffTheMap) {
   // A map of one wall seen from far: many poses put the same few points on it.
   GridMapConfig c;
@@ -114,11 +163,32 @@ TEST(WindowSearch, TiesGoToTheLowestIndexAndNothingScoresOffTheMap) {
   o.level = 2;
   o.stride = 2;
   SearchWindow w{at, 0.1, std::atan2(0.2, 10.0), 20, 4};
-  for (const bool penalty : {true, false}) {
-    o.use_penalty = penalty;
-    expect_same(search_window(map, points, o, w, 1.0),
-                search_window_brute_force(map, points, o, w, 1.0), penalty);
+  // The search scores the centre first; where it ties with candidates of lower index, the
+  // lowest still wins. Centres moved along the wall (some off its grid of steps, some turned
+  // by a step) make such ties.
+  int centre_ties = 0;
+  for (int k = -10; k <= 10; ++k) {
+    const double dy = 0.1 * k + 0.03 * (k % 3);
+    w.centre = {at.x, at.y + dy, at.theta - (k % 2) * w.step_theta};
+    for (const bool penalty : {true, false}) {
+      o.use_penalty = penalty;
+      const auto brute = search_window_brute_force(map, points, o, w, 1.0);
+      expect_same(search_window(map, points, o, w, 1.0), brute, penalty);
+      ASSERT_TRUE(brute.has_value());
+      HeadingScorer scorer(map, points, o);
+      for (int it = -w.n_theta; it <= w.n_theta; ++it) {
+        scorer.set_heading(normalize_angle(w.centre.theta + it * w.step_theta));
+        const std::size_t centre_index = static_cast<std::size_t>(
+            ((it + w.n_theta) * (2 * w.n_xy + 1) + w.n_xy) * (2 * w.n_xy + 1) + w.n_xy);
+        if (scorer.evaluate(w.centre.x, w.centre.y).fitness == brute->score &&
+            centre_index > brute->index) {
+          ++centre_ties;
+        }
+      }
+    }
   }
+  EXPECT_GT(centre_ties, 0) << "no centre tied with a candidate of lower index";
+  w.centre = at;
   // Far from every known cell: no candidate scores.
   w.centre = {500.0, 500.0, 0.0};
   EXPECT_FALSE(search_window(map, points, o, w, 1.0).has_value());
