@@ -66,27 +66,40 @@ void expect_same(const std::optional<WindowMatch>& bb, const std::optional<Windo
   EXPECT_EQ(bb->pose.theta, brute->pose.theta) << "seed " << seed;
 }
 
+/// A scan of `world` from a random pose, a window around a pose near it, the coarse level
+/// as the loop closure scores it; penalty and rival distance vary with `variant`.
+struct Scene {
+  ScanPoints points;
+  SearchWindow w;
+  FitnessOptions o;
+  double rival_distance;
+};
+Scene random_scene(const std::vector<testing::Segment>& world, std::uint64_t rng_seed,
+                   std::uint64_t variant) {
+  Rng rng(rng_seed);
+  Scene s;
+  const Pose2 truth{1.0 + 10.0 * rng.uniform(), 1.0 + 6.0 * rng.uniform(),
+                    (2.0 * rng.uniform() - 1.0) * std::numbers::pi};
+  s.points = prepare_scan(make_scan(world, truth));
+  s.w.centre = {truth.x + rng.uniform() - 0.5, truth.y + rng.uniform() - 0.5,
+                truth.theta + 0.2 * (rng.uniform() - 0.5)};
+  s.w.step_xy = 0.1;
+  s.w.step_theta = std::atan2(0.2, 10.0);
+  s.w.n_xy = 5 + static_cast<int>(rng.uniform() * 30);
+  s.w.n_theta = 2 + static_cast<int>(rng.uniform() * 10);
+  s.o.level = 2;
+  s.o.stride = 2;
+  s.o.use_penalty = variant % 2 == 0;
+  s.rival_distance = variant % 3 == 0 ? 0.3 : 1.0;
+  return s;
+}
+
 TEST(WindowSearch, BranchAndBoundEqualsBruteForce) {
   const auto world = asymmetric_room();
   const GridMap map = map_of(world, 12.0, 8.0);
   std::size_t scored = 0, total = 0;
   for (std::uint64_t seed = 1; seed <= 24; ++seed) {
-    Rng rng(seed);
-    const Pose2 truth{1.0 + 10.0 * rng.uniform(), 1.0 + 6.0 * rng.uniform(),
-                      (2.0 * rng.uniform() - 1.0) * std::numbers::pi};
-    const ScanPoints points = prepare_scan(make_scan(world, truth));
-    SearchWindow w;
-    w.centre = {truth.x + rng.uniform() - 0.5, truth.y + rng.uniform() - 0.5,
-                truth.theta + 0.2 * (rng.uniform() - 0.5)};
-    w.step_xy = 0.1;
-    w.step_theta = std::atan2(0.2, 10.0);
-    w.n_xy = 5 + static_cast<int>(rng.uniform() * 30);
-    w.n_theta = 2 + static_cast<int>(rng.uniform() * 10);
-    FitnessOptions o;
-    o.level = 2;
-    o.stride = 2;
-    o.use_penalty = seed % 2 == 0;
-    const double rival_distance = seed % 3 == 0 ? 0.3 : 1.0;
+    const auto [points, w, o, rival_distance] = random_scene(world, seed, seed);
     const auto bb = search_window(map, points, o, w, rival_distance);
     const auto brute = search_window_brute_force(map, points, o, w, rival_distance);
     expect_same(bb, brute, seed);
@@ -106,22 +119,7 @@ TEST(WindowSearch, ARivalRatioDecidesAsTheExactRivalWithLessWork) {
   const GridMap map = map_of(world, 12.0, 8.0);
   std::size_t work_ratio = 0, work_exact = 0, beyond = 0, within = 0;
   for (std::uint64_t seed = 1; seed <= 24; ++seed) {
-    Rng rng(seed + 1000);
-    const Pose2 truth{1.0 + 10.0 * rng.uniform(), 1.0 + 6.0 * rng.uniform(),
-                      (2.0 * rng.uniform() - 1.0) * std::numbers::pi};
-    const ScanPoints points = prepare_scan(make_scan(world, truth));
-    SearchWindow w;
-    w.centre = {truth.x + rng.uniform() - 0.5, truth.y + rng.uniform() - 0.5,
-                truth.theta + 0.2 * (rng.uniform() - 0.5)};
-    w.step_xy = 0.1;
-    w.step_theta = std::atan2(0.2, 10.0);
-    w.n_xy = 5 + static_cast<int>(rng.uniform() * 30);
-    w.n_theta = 2 + static_cast<int>(rng.uniform() * 10);
-    FitnessOptions o;
-    o.level = 2;
-    o.stride = 2;
-    o.use_penalty = seed % 2 == 0;
-    const double rival_distance = seed % 3 == 0 ? 0.3 : 1.0;
+    const auto [points, w, o, rival_distance] = random_scene(world, seed + 1000, seed);
     const auto exact = search_window(map, points, o, w, rival_distance);
     const auto brute = search_window_brute_force(map, points, o, w, rival_distance);
     ASSERT_TRUE(brute.has_value()) << "seed " << seed;
