@@ -241,6 +241,17 @@ void GridMap::mark_all_dirty() {
   }
 }
 
+void GridMap::clear_counters() {
+  for (auto& [key, tile] : tiles_) {
+    Tile& t = *tile;
+    std::fill(t.hit.begin(), t.hit.end(), 0u);
+    std::fill(t.err.begin(), t.err.end(), 0u);
+    std::fill(t.score.begin(), t.score.end(), kUnknownScore);
+    std::fill(t.stale.begin(), t.stale.end(), std::uint64_t{0});
+    mark_touched(t);  // commit_update() rebuilds its coarse levels and bumps its version
+  }
+}
+
 std::vector<TileKey> GridMap::tile_keys() const {
   std::vector<TileKey> keys;
   keys.reserve(tiles_.size());

@@ -685,20 +685,34 @@ void Slam::apply_graph() {
   }
   const double move_xy = config_.loop.move_min_xy;
   const double move_theta = deg_to_rad(config_.loop.move_min_theta_deg);
-  bool changed = false;
+  std::vector<bool> moves(keys_.size());
+  std::size_t moved = 0;
+  for (std::size_t k = 0; k < keys_.size(); ++k) {
+    const Pose2& was = keys_[k].mapped_pose;
+    const Pose2& now = graph_.node(k);
+    moves[k] = !(std::hypot(now.x - was.x, now.y - was.y) < move_xy &&
+                 std::abs(normalize_angle(now.theta - was.theta)) < move_theta);
+    moved += moves[k] ? 1 : 0;
+  }
+  // The map is the sum of its key scans' counts, so writing every key scan again into a
+  // cleared map gives the same counters as taking out and writing again the ones that moved:
+  // one walk per key scan against two per moved one (a closure at the end of a long loop, and
+  // the final pass, move most of them).
+  const bool rewrite_all = 2 * moved > keys_.size();
+  if (rewrite_all) map_.clear_counters();
   for (std::size_t k = 0; k < keys_.size(); ++k) {
     KeyScan& key = keys_[k];
-    const Pose2& now = graph_.node(k);
-    if (std::hypot(now.x - key.mapped_pose.x, now.y - key.mapped_pose.y) < move_xy &&
-        std::abs(normalize_angle(now.theta - key.mapped_pose.theta)) < move_theta) {
-      continue;
+    if (moves[k]) {
+      if (!rewrite_all) {
+        update_map(map_, *key.points, key.mapped_pose, config_.update, /*remove=*/true, false);
+      }
+      key.mapped_pose = graph_.node(k);
+      update_map(map_, *key.points, key.mapped_pose, config_.update, false, false);
+    } else if (rewrite_all) {
+      update_map(map_, *key.points, key.mapped_pose, config_.update, false, false);
     }
-    update_map(map_, *key.points, key.mapped_pose, config_.update, /*remove=*/true, false);
-    update_map(map_, *key.points, now, config_.update, false, false);
-    key.mapped_pose = now;
-    changed = true;
   }
-  if (changed) map_.commit_update();
+  if (moved > 0) map_.commit_update();
   for (std::size_t t = 0; t < trajectory_.size(); ++t) {
     const auto& [k, rel] = anchors_[t];
     trajectory_[t].pose = graph_.node(k).compose(rel);

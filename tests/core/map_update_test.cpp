@@ -12,6 +12,8 @@
 #include "esfleet/core/grid_traversal.hpp"
 #include "esfleet/core/scan_points.hpp"
 #include "esfleet/core/slam.hpp"
+#include "esfleet/core/tile_codec.hpp"
+#include "synthetic_world.hpp"
 
 namespace esfleet {
 namespace {
@@ -311,6 +313,62 @@ TEST(MapUpdateTest, ACoarseLaserIsWrittenWithItsWallsFilledIn) {
   bad = config;
   bad.beam_fill_min_turn_deg = std::numeric_limits<double>::infinity();
   EXPECT_THROW(bad.validate(), std::invalid_argument);
+}
+
+/// Every tile's counters, scores and coarse levels equal in a and b (the same tiles).
+void expect_same_tiles(const GridMap& a, const GridMap& b) {
+  ASSERT_EQ(a.tile_keys(), b.tile_keys());
+  for (const TileKey& k : a.tile_keys()) {
+    const Tile& ta = *a.find_tile(k);
+    const Tile& tb = *b.find_tile(k);
+    EXPECT_EQ(ta.hit, tb.hit) << "tile " << k.tx << " " << k.ty;
+    EXPECT_EQ(ta.err, tb.err) << "tile " << k.tx << " " << k.ty;
+    EXPECT_EQ(ta.score, tb.score) << "tile " << k.tx << " " << k.ty;
+    EXPECT_EQ(ta.coarse, tb.coarse) << "tile " << k.tx << " " << k.ty;
+  }
+}
+
+TEST(MapUpdateTest, EveryScanWrittenIntoAClearedMapEqualsMovingTheMovedOnes) {
+  // What Slam::apply_graph relies on when most key scans moved: clearing the counters and
+  // writing every scan at its pose gives the map that taking out and writing again the moved
+  // ones gives, tile for tile (the tiles only the old poses reached stay, all unknown).
+  const auto world = testing::asymmetric_room();
+  GridMapConfig config;
+  config.pyramid_levels = 2;
+  std::vector<ScanPoints> points;
+  std::vector<Pose2> was, now;
+  for (int i = 0; i < 12; ++i) {
+    const Pose2 p{1.5 + 0.8 * i, 2.0 + 0.3 * (i % 4), 0.4 * i};
+    points.push_back(prepare_scan(testing::make_scan(world, p)));
+    was.push_back(p);
+    // Two of three moved, as after a loop closure: a few centimetres and a degree or two.
+    now.push_back(i % 3 == 0 ? p : Pose2{p.x + 0.07, p.y - 0.04 * i, p.theta + 0.03});
+  }
+  GridMap in_place(config), rewritten(config);
+  for (GridMap* m : {&in_place, &rewritten}) {
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      update_map(*m, points[i], was[i], MapUpdateConfig{}, false, false);
+    }
+    m->commit_update();
+  }
+  const std::string before = map_digest(in_place);
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    if (now[i] == was[i]) continue;
+    update_map(in_place, points[i], was[i], MapUpdateConfig{}, /*remove=*/true, false);
+    update_map(in_place, points[i], now[i], MapUpdateConfig{}, false, false);
+  }
+  in_place.commit_update();
+  rewritten.clear_counters();
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    update_map(rewritten, points[i], now[i], MapUpdateConfig{}, false, false);
+  }
+  const std::size_t committed = rewritten.commit_update();
+  EXPECT_NE(map_digest(in_place), before);  // the moves changed the map
+  EXPECT_EQ(map_digest(rewritten), map_digest(in_place));
+  expect_same_tiles(rewritten, in_place);
+  // Every tile was part of the update: all of them go out again with a new version.
+  EXPECT_EQ(committed, rewritten.tile_count());
+  for (const TileKey& k : rewritten.tile_keys()) EXPECT_EQ(rewritten.find_tile(k)->version, 2u);
 }
 
 TEST(MapUpdateTest, CommitBumpsVersionOfTouchedTiles) {

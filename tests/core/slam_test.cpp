@@ -2,6 +2,7 @@
 // be deterministic for a seed, and keep the paper's exact configuration reachable.
 
 #include "esfleet/core/slam.hpp"
+#include "esfleet/core/tile_codec.hpp"
 
 #include <gtest/gtest.h>
 
@@ -413,6 +414,60 @@ TEST(Slam, FinalPassUndoesDriftAtARevisit) {
     EXPECT_LT(e.xy, 0.5 * before.xy) << "seed " << seed;
     EXPECT_LT(e.theta_deg, 0.6 * before.theta_deg) << "seed " << seed;
   }
+}
+
+TEST(Slam, AfterTheGraphMovesTheKeyScansTheMapIsTheirsAtTheirNewPoses) {
+  // The final pass on the drifted state moves most key scans (the map is then written again
+  // whole); a second one moves a few back (taken out and written again one by one): either
+  // way the map is what the key scans give at their poses.
+  const auto path = room_path(0.1);
+  const auto scans = scans_along(path);
+  const double turn_end = scans[path.size() / 2 + 9].stamp;
+  SlamConfig config = final_pass_config();
+  const auto write_keys = [&](const SlamState& st, GridMap& m) {
+    for (const KeyScan& k : st.keys) {
+      update_map(m, *k.points, k.mapped_pose, config.update, false, false);
+    }
+    m.commit_update();
+  };
+  const auto from_scratch = [&](const SlamState& st) {
+    GridMap m(config.map);
+    write_keys(st, m);
+    return map_digest(m);
+  };
+  const auto moved = [](const SlamState& a, const SlamState& b) {
+    std::size_t n = 0;
+    for (std::size_t k = 0; k < a.keys.size(); ++k) {
+      n += a.keys[k].mapped_pose == b.keys[k].mapped_pose ? 0 : 1;
+    }
+    return n;
+  };
+  // restore() takes the state besides the map; the map is the key scans where they were
+  // written.
+  const auto finished = [&](const SlamState& st) {
+    Slam slam(config);
+    slam.restore(st);
+    write_keys(st, slam.map());
+    slam.finish(1);
+    return std::pair{slam.state(), map_digest(slam.map())};
+  };
+  const SlamState drifted = drifted_room_state(config, scans, turn_end);
+  const auto [after, after_map] = finished(drifted);
+  EXPECT_GT(2 * moved(drifted, after), after.keys.size());
+  EXPECT_NE(after_map, from_scratch(drifted));
+  EXPECT_EQ(after_map, from_scratch(after));
+
+  // Four key scans written 5 cm off their graph poses: the next pass puts back those few.
+  SlamState again = after;
+  for (std::size_t k = again.keys.size() - 4; k < again.keys.size(); ++k) {
+    again.keys[k].mapped_pose.x += 0.05;
+  }
+  const auto [last, last_map] = finished(again);
+  const std::size_t n = moved(again, last);
+  EXPECT_GT(n, 0u);
+  EXPECT_LT(2 * n, last.keys.size());
+  EXPECT_NE(last_map, from_scratch(again));
+  EXPECT_EQ(last_map, from_scratch(last));
 }
 
 TEST(Slam, FinalPassIsTheSameForAnyNumberOfThreads) {

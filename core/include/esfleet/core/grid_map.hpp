@@ -176,6 +176,11 @@ class GridMap {
   std::vector<TileKey> take_dirty();
   /// Marks every existing tile dirty (e.g. to republish all).
   void mark_all_dirty();
+  /// Every tile's counters back to zero (every cell unknown), as if every observation had been
+  /// removed, the tiles kept; part of the update the next commit_update() ends (each tile
+  /// touched). For re-writing most of a map's scans: adding them all again costs one walk per
+  /// scan where removing and adding each costs two.
+  void clear_counters();
 
   const Tile* find_tile(TileKey k) const;
   std::vector<TileKey> tile_keys() const;  ///< sorted
