@@ -140,7 +140,7 @@ class Searcher {
       leaf(Block{0.0f, it, 0, 0, 0}, false);
     }
     for (const Block& b : roots) {
-      if (!(b.bound > 0.0f) || (found_ && b.bound * (1.0f + kSlack) < best_)) continue;
+      if (!(b.bound > 0.0f) || !may_hold_best(b)) continue;
       heading(b.it);
       descend(b, false);
     }
@@ -201,6 +201,12 @@ class Searcher {
                                     w_.n_xy);
   }
 
+  /// Whether block b may hold the best: a candidate scoring at least the best so far (a tie
+  /// may have a lower index), or nothing found yet.
+  bool may_hold_best(const Block& b) const {
+    return !found_ || !(b.bound * (1.0f + kSlack) < best_);
+  }
+
   /// A rival beyond rival_ratio_ decides the caller's question: the search for it stops.
   bool rival_beyond_ratio() const {
     return static_cast<double>(rival_) / static_cast<double>(best_) > rival_ratio_;
@@ -212,8 +218,8 @@ class Searcher {
   bool may_hold_rival(const Block& b) const {
     const float upper = b.bound * (1.0f + kSlack);
     if (!(upper > rival_)) return false;
-    if (static_cast<double>(upper) / static_cast<double>(best_) <= rival_ratio_ &&
-        rival_ratio_ < std::numeric_limits<double>::infinity()) {
+    if (rival_ratio_ < std::numeric_limits<double>::infinity() &&
+        static_cast<double>(upper) / static_cast<double>(best_) <= rival_ratio_) {
       return false;
     }
     return !inside_rival_disk(b);
@@ -276,7 +282,7 @@ class Searcher {
       if (rival && rival_beyond_ratio()) return;
       if (c.level > 0) {
         if (!(c.bound > 0.0f)) continue;
-        if (rival ? !may_hold_rival(c) : found_ && c.bound * (1.0f + kSlack) < best_) continue;
+        if (!(rival ? may_hold_rival(c) : may_hold_best(c))) continue;
       }
       descend(c, rival);
     }
